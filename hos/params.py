@@ -1,0 +1,177 @@
+"""Parameters of the detector: frozen dataclasses whose defaults are the paper's values.
+
+Every number of Bossu, Hautière & Tarel (IJCV 2011) that the method needs is here, with the
+section or equation it comes from. Parameters that go beyond the paper (robustness, see
+``docs/method.md``) say so. All angles are radians inside the code; the user-facing JSON and the
+config use degrees.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, Literal
+
+__all__ = [
+    "DecisionParams",
+    "DetectorParams",
+    "HistogramParams",
+    "MixtureParams",
+    "RobustnessParams",
+    "SegmentationParams",
+]
+
+
+@dataclass(frozen=True)
+class SegmentationParams:
+    """Candidate streak pixels and blobs (paper section 2)."""
+
+    #: ``"mog"``: mixture-of-Gaussians background subtraction (eqs. 3-6) + photometric rule
+    #: (eq. 8). ``"framediff"``: the rule of eq. 32, ``I_n - I_{n-1} >= c`` and
+    #: ``I_n - I_{n+1} >= c``, with one frame of delay.
+    method: Literal["mog", "framediff"] = "mog"
+    #: MoG memory in frames; the decay factor of eq. 6 is ``gamma_1 = 1 / history``.
+    mog_history: int = 500
+    #: Number of Gaussians per pixel (K of eq. 3).
+    mog_mixtures: int = 3
+    #: D of section 2.2: a pixel further than D standard deviations from every background
+    #: component is foreground. OpenCV's MOG2 takes D squared as ``varThreshold``.
+    mog_d: float = 3.0
+    #: T of eq. 5, minimum prior probability of observing a background pixel.
+    mog_background_ratio: float = 0.9
+    #: c of eqs. 8 and 32 (grey levels): rain is brighter than what it occludes.
+    photometric_c: float = 3.0
+    #: Size rule (section 2.4): blob areas in pixels at ``size_reference_height`` rows; scaled by
+    #: ``(height / size_reference_height) ** 2`` so that one setting serves every resolution.
+    min_area: int = 4
+    max_area: int = 50
+    size_reference_height: int = 480
+    #: Learning rate of the running background image used by the photometric rule.
+    background_rate: float = 0.02
+
+
+@dataclass(frozen=True)
+class HistogramParams:
+    """The HOS (section 3, eqs. 13-20)."""
+
+    bins: int = 180
+    #: dm of eq. 19, the uncertainty of a second-order moment (px^2). The paper chose it "in
+    #: simulation"; ours is chosen the same way: 0.5 smooths the HOS of a few hundred streaks
+    #: enough for the goodness-of-fit test while widening it by under 5 % (docs/method.md).
+    dm: float = 0.5
+    #: Clamp of the per-blob orientation uncertainty (eq. 19 diverges for round blobs).
+    dtheta_min: float = math.radians(0.5)
+    dtheta_max: float = math.radians(90.0)
+    #: dG of eq. 11 for the gradient (HOG) variant, in grey levels.
+    dg: float = 8.0
+
+
+@dataclass(frozen=True)
+class MixtureParams:
+    """EM for the Gaussian-uniform mixture (section 4, eqs. 23-26)."""
+
+    max_iter: int = 100
+    tol: float = 1e-6
+    #: Goodness-of-fit threshold Dc of eq. 26 (paper: 0.06).
+    gof_dc: float = 0.06
+    #: Beyond the paper: D of eq. 26 is a Kolmogorov-Smirnov distance, whose sampling noise
+    #: alone exceeds 0.06 with fewer than ~500 blobs. The threshold used is
+    #: ``max(gof_dc, gof_ks_c / sqrt(n_eff))``, n_eff the effective number of weighted votes
+    #: (1.36: the 5 % critical value). Set ``gof_ks_c = 0`` for the paper's fixed threshold.
+    gof_ks_c: float = 1.36
+    #: Floor on sigma so that EM cannot collapse onto one bin.
+    sigma_min: float = math.radians(1.0)
+
+
+@dataclass(frozen=True)
+class DecisionParams:
+    """Kalman smoothing of (Pi, mu, sigma) and the decision (section 5)."""
+
+    #: Variance of the process noise and of the measurement noise (paper: 0.01 and 0.1).
+    process_var: float = 0.01
+    measurement_var: float = 0.1
+    #: Threshold on the smoothed surface of the Gaussian (paper: 0.35).
+    pi_rain: float = 0.35
+    #: Beyond the paper: the decision switches off at ``pi_rain - hysteresis`` so that the
+    #: verdict does not flicker around the threshold.
+    hysteresis: float = 0.05
+    #: Beyond the paper: a frame without a valid fit is evidence of *no* rain. It updates Pi
+    #: with a measurement of 0 and this (larger) variance, so that the state decays instead of
+    #: freezing at its last value (the weakness noted in section 5).
+    miss_measurement_var: float = 0.6
+    #: Beyond the paper: a fit needs at least this many blobs to be a measurement at all.
+    min_blobs: int = 12
+    #: Beyond the paper: a fitted Gaussian wider than this is not a streak population.
+    sigma_max: float = math.radians(30.0)
+    #: S_b of section 6: a blob is rain when P(rain|theta)/P(noise|theta) > S_b (paper: 0.6).
+    s_b: float = 0.6
+
+
+@dataclass(frozen=True)
+class RobustnessParams:
+    """Beyond the paper: what keeps clear weather clear on a real roadside camera.
+
+    See ``docs/method.md`` for why each of these exists.
+    """
+
+    #: Frames of warm-up during which the background model is learnt and no verdict is given.
+    warmup_frames: int = 40
+    #: Time constant (frames) of the per-pixel candidate rate used to find structural noise:
+    #: rain lands at random places, edges of a shaking camera or swaying leaves recur in place.
+    persistence_frames: int = 50
+    #: A blob whose pixels are candidates more often than ``max(persistence_floor,
+    #: persistence_ratio * global candidate rate)`` is structural noise, not rain.
+    persistence_floor: float = 0.06
+    persistence_ratio: float = 4.0
+    #: Global motion (camera shake) measured by phase correlation on a reduced image.
+    motion_scale: int = 4
+    #: A frame moved by more than this (pixels at full resolution) carries no rain evidence.
+    motion_frame_px: float = 0.75
+    #: Fraction of recent frames that moved above which the camera is declared ``unstable``.
+    motion_unstable_fraction: float = 0.3
+    motion_window_frames: int = 25
+    #: Exposure compensation: a global gain change larger than this is undone before the
+    #: background model sees it.
+    gain_tolerance: float = 0.03
+    #: Mean grey level of the region of interest under which the camera cannot see rain.
+    dark_level: float = 20.0
+    #: Fraction of the region of interest in the foreground above which the scene has changed
+    #: (lights, a wiper, a moved camera); the background is relearnt quickly.
+    scene_change_fraction: float = 0.35
+    #: Beyond the paper (section 7): in heavy rain streaks overlap and merge into blobs that the
+    #: size rule rejects; R is corrected by the candidate area those merged blobs carry.
+    merge_correction: bool = True
+    merge_max_factor: float = 20.0
+
+
+@dataclass(frozen=True)
+class DetectorParams:
+    """All detector parameters, grouped as the paper's sections are."""
+
+    segmentation: SegmentationParams = field(default_factory=SegmentationParams)
+    histogram: HistogramParams = field(default_factory=HistogramParams)
+    mixture: MixtureParams = field(default_factory=MixtureParams)
+    decision: DecisionParams = field(default_factory=DecisionParams)
+    robustness: RobustnessParams = field(default_factory=RobustnessParams)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any] | None) -> DetectorParams:
+        """Build from ``{"segmentation": {...}, ...}``; angles given in degrees where the key
+        ends in ``_deg``. Unknown keys raise ``ValueError`` naming the key."""
+        if not data:
+            return cls()
+        groups = {f.name: f for f in fields(cls)}
+        built: dict[str, Any] = {}
+        for group, values in data.items():
+            if group not in groups:
+                raise ValueError(f"detector.{group}: unknown parameter group")
+            default = getattr(cls(), group)
+            known = {f.name for f in fields(default)}
+            kwargs: dict[str, Any] = {}
+            for key, value in (values or {}).items():
+                name = key[:-4] if key.endswith("_deg") else key
+                if name not in known:
+                    raise ValueError(f"detector.{group}.{key}: unknown parameter")
+                kwargs[name] = math.radians(value) if key.endswith("_deg") else value
+            built[group] = replace(default, **kwargs)
+        return cls(**built)

@@ -1,0 +1,338 @@
+"""The whole detector: one grey frame in, one :class:`~hos.result.FrameResult` out.
+
+Steps, in the paper's order (Fig. 1), with our additions marked *beyond*:
+
+1. *beyond*: global measurements on a reduced image: brightness (``dark``), frame-to-frame
+   camera motion (``unstable``), exposure gain (undone before the background model sees it);
+2. candidate pixels: MoG + photometric rule (eqs. 3-8) or the frame difference rule (eq. 32),
+   restricted to the region of interest;
+3. connected components, size rule (section 2.4), *beyond*: structure rule (blobs that recur in
+   place);
+4. moments, orientation, semi-axes and uncertainty of every blob (eqs. 13-19);
+5. HOS (eq. 20), EM fit of the Gaussian-uniform mixture (eqs. 23-25), goodness of fit (eq. 26);
+6. Kalman smoothing of (Pi, mu, sigma) and the decision on Pi_rain (section 5), *beyond*: misses
+   decay the state, hysteresis, a minimum number of blobs, a maximum sigma;
+7. rain pixels: blobs classified by the Bayes ratio against S_b (eqs. 28-30);
+8. intensity R = S * Pi (eq. 31), *beyond*: corrected for merged streaks in heavy rain.
+
+The detector is pure: no I/O, no threads, no clock. Its only state is the background model, the
+per-pixel candidate rate and the Kalman filter.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from .background import FrameDiffSegmenter, MogSegmenter
+from .blobs import find_blobs, size_rule, structure_rule
+from .histogram import hos_histogram
+from .mixture import fit_mixture
+from .moments import orientation_uncertainty
+from .motion import exposure_gain, global_translation, reduce
+from .params import DetectorParams
+from .result import BlobClass, FrameResult, MixtureFit, State
+from .smoothing import ParameterSmoother
+
+__all__ = ["HosDetector", "classify_blobs"]
+
+_GAIN_SCALE = 8  # reduction of the image used for brightness, gain and motion
+
+
+def classify_blobs(
+    theta: np.ndarray, *, pi: float, mu: float, sigma: float, s_b: float
+) -> np.ndarray:
+    """Rain pixels, section 6: (P,) bool, True where a blob's orientation is the rain's.
+
+    With the fitted mixture, P(theta|rain) = N / (Pi N + (1-Pi) U) (eq. 28) and
+    P(theta|noise) = U / (Pi N + (1-Pi) U) (eq. 29); by Bayes' rule the ratio of the posteriors
+    is ``P(rain|theta) / P(noise|theta) = Pi N(theta) / ((1 - Pi) U)``, compared with S_b.
+    """
+    d = np.mod(np.asarray(theta) - mu + np.pi / 2, np.pi) - np.pi / 2
+    gauss = sum(np.exp(-0.5 * ((d + k * np.pi) / sigma) ** 2) for k in (-1, 0, 1)) / (
+        sigma * math.sqrt(2.0 * math.pi)
+    )
+    uniform = 1.0 / np.pi
+    with np.errstate(divide="ignore"):
+        ratio = pi * gauss / ((1.0 - pi) * uniform)
+    return ratio > s_b
+
+
+class HosDetector:
+    """Rain/snow detector of Bossu, Hautière & Tarel (IJCV 2011), made robust for roadside use.
+
+    Parameters
+    ----------
+    params : DetectorParams, paper defaults
+    roi : (H, W) bool or uint8, optional; nonzero pixels are analysed (exclude sky, trees, a
+        busy road...). Resized with nearest neighbour if the frames have another size.
+    """
+
+    def __init__(self, params: DetectorParams | None = None, *, roi: np.ndarray | None = None):
+        self.params = params or DetectorParams()
+        self._roi_input = None if roi is None else (np.asarray(roi) != 0).astype(np.uint8) * 255
+        self._shape: tuple[int, int] | None = None
+        self._smoother = ParameterSmoother(self.params.decision)
+        self._reset_image_state()
+
+    # -- state ---------------------------------------------------------------------------
+    def _reset_image_state(self) -> None:
+        seg = self.params.segmentation
+        self._segmenter = MogSegmenter(seg) if seg.method == "mog" else FrameDiffSegmenter(seg)
+        self._frames_seen = 0
+        self._relearn = 0
+        self._rate: np.ndarray | None = None
+        self._global_rate = 0.0
+        self._prev_small: np.ndarray | None = None
+        self._bg_small: np.ndarray | None = None
+        self._gain = 1.0
+        self._moving = 0.0
+        self._index = getattr(self, "_index", -1)
+
+    def _setup(self, shape: tuple[int, int]) -> None:
+        self._shape = shape
+        h, w = shape
+        if self._roi_input is None:
+            self._roi = None
+            self._roi_area = h * w
+        else:
+            roi = self._roi_input
+            if roi.shape != shape:
+                roi = cv2.resize(roi, (w, h), interpolation=cv2.INTER_NEAREST)
+            self._roi = roi
+            self._roi_area = max(cv2.countNonZero(roi), 1)
+        roi_small = None if self._roi is None else reduce(self._roi, _GAIN_SCALE) > 127
+        self._roi_small = roi_small
+        seg = self.params.segmentation
+        scale = (h / seg.size_reference_height) ** 2
+        self._min_area = seg.min_area * scale
+        self._max_area = seg.max_area * scale
+        self._rate = np.zeros(shape, np.float32)
+
+    # -- the frame -----------------------------------------------------------------------
+    def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
+        """Run every step on one frame.
+
+        Parameters
+        ----------
+        gray : (H, W) uint8 grey frame (a (H, W, 3) BGR frame is converted)
+        t_s : float, time of the frame in seconds
+        """
+        gray = _as_gray(gray)
+        self._index += 1
+        if gray.shape != self._shape:
+            if self._shape is not None:  # the camera changed resolution: start over
+                self._reset_image_state()
+            self._setup(gray.shape)
+        p = self.params
+        rob = p.robustness
+        self._frames_seen += 1
+
+        # 1. global measurements (beyond the paper)
+        small = reduce(gray, _GAIN_SCALE)
+        in_roi = small if self._roi_small is None else small[self._roi_small]
+        brightness = float(in_roi.mean()) if in_roi.size else 0.0
+        motion_px = 0.0
+        if self._prev_small is not None:
+            dx, dy = global_translation(self._prev_small, small)
+            motion_px = math.hypot(dx, dy) * _GAIN_SCALE
+        self._prev_small = small
+        moved = motion_px > rob.motion_frame_px
+        k = 1.0 / rob.motion_window_frames
+        self._moving += k * (float(moved) - self._moving)
+        frame = self._compensate_exposure(gray, small)
+
+        # 2. candidate pixels
+        learning_rate = 0.05 if self._relearn > 0 else -1.0
+        self._relearn = max(self._relearn - 1, 0)
+        candidates = self._segmenter.apply(frame, learning_rate=learning_rate)
+        foreground_fraction = getattr(self._segmenter, "foreground_fraction", 0.0)
+        if self._roi is not None:
+            candidates = cv2.bitwise_and(candidates, self._roi)
+        n_candidates = cv2.countNonZero(candidates)
+        candidate_fraction = n_candidates / self._roi_area
+        if (
+            self._frames_seen > rob.warmup_frames
+            and max(candidate_fraction, foreground_fraction) > rob.scene_change_fraction
+        ):
+            self._relearn = rob.warmup_frames
+
+        # 3. blobs, size rule, structure rule
+        blobs = find_blobs(candidates)
+        mom = blobs.moments
+        structural = structure_rule(
+            blobs,
+            self._rate,
+            global_rate=self._global_rate,
+            floor=rob.persistence_floor,
+            ratio=rob.persistence_ratio,
+        )
+        self._update_rate(candidates, candidate_fraction)
+        sized = size_rule(mom.area, min_area=self._min_area, max_area=self._max_area)
+        sized[0] = False
+        accepted = sized & ~structural
+        idx = np.flatnonzero(accepted)
+
+        # 4-5. orientation, HOS, mixture
+        hp = p.histogram
+        dtheta = orientation_uncertainty(
+            mom.m20[idx], mom.m11[idx], mom.m02[idx], dm=hp.dm, lo=hp.dtheta_min, hi=hp.dtheta_max
+        )
+        theta = mom.theta[idx]
+        hist = hos_histogram(
+            theta,
+            dtheta,
+            mom.a[idx],
+            bins=hp.bins,
+            dtheta_min=hp.dtheta_min,
+            dtheta_max=hp.dtheta_max,
+        )
+        S = float(hist.sum())
+        if idx.size:
+            mp = p.mixture
+            weights = mom.a[idx]
+            n_eff = float(weights.sum()) ** 2 / float(np.sum(weights * weights))
+            fit = fit_mixture(
+                hist,
+                max_iter=mp.max_iter,
+                tol=mp.tol,
+                gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
+                sigma_min=mp.sigma_min,
+            )
+        else:
+            fit = MixtureFit(ok=False, reason="no blobs")
+
+        # 6. state and decision
+        state = self._state(brightness)
+        dp = p.decision
+        if state in (State.WARMING_UP, State.SCENE_CHANGE) or moved:
+            smoothed = self._smoother.hold()
+        elif (
+            state == State.OK
+            and fit.ok
+            and fit.gof_ok
+            and idx.size >= dp.min_blobs
+            and fit.sigma <= dp.sigma_max
+        ):
+            smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma))
+        else:
+            smoothed = self._smoother.update(None)
+        rain = smoothed.rain and state == State.OK
+
+        # 7. rain pixels
+        blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
+        blob_class[0] = BlobClass.NONE
+        blob_class[structural] = BlobClass.STRUCTURE
+        if smoothed.rain:
+            model = (smoothed.pi, smoothed.mu, smoothed.sigma)
+        elif fit.ok and fit.gof_ok:
+            model = (fit.pi, fit.mu, fit.sigma)
+        else:
+            model = None
+        if model is not None and 0.0 < model[0] < 1.0:
+            is_rain = classify_blobs(theta, pi=model[0], mu=model[1], sigma=model[2], s_b=dp.s_b)
+        else:
+            is_rain = np.zeros(idx.size, dtype=bool)
+        blob_class[idx] = np.where(is_rain, BlobClass.RAIN, BlobClass.NOISE)
+
+        # 8. intensity
+        R = S * smoothed.pi * self._merge_correction(mom.area, accepted, structural)
+
+        return FrameResult(
+            frame=self._index,
+            t_s=float(t_s),
+            rain=rain,
+            state=state,
+            fit=fit,
+            pi_smoothed=smoothed.pi,
+            mu_smoothed=smoothed.mu,
+            sigma_smoothed=smoothed.sigma,
+            S=S,
+            R=R,
+            n_blobs=int(idx.size),
+            n_rain_blobs=int(np.count_nonzero(is_rain)),
+            histogram=hist,
+            motion_px=motion_px,
+            gain=self._gain,
+            brightness=brightness,
+            candidate_fraction=candidate_fraction,
+            n_structural_blobs=int(np.count_nonzero(structural & (mom.area > 0))),
+            labels=blobs.labels,
+            blob_class=blob_class,
+        )
+
+    # -- helpers -------------------------------------------------------------------------
+    def _state(self, brightness: float) -> str:
+        rob = self.params.robustness
+        if self._frames_seen <= rob.warmup_frames + self._segmenter.delay:
+            return State.WARMING_UP
+        if self._relearn > 0:
+            return State.SCENE_CHANGE
+        if brightness < rob.dark_level:
+            return State.DARK
+        if self._moving > rob.motion_unstable_fraction:
+            return State.UNSTABLE
+        return State.OK
+
+    def _compensate_exposure(self, gray: np.ndarray, small: np.ndarray) -> np.ndarray:
+        """Undo global gain steps (auto-exposure) before the background model sees them.
+
+        The applied gain relaxes back to 1 slowly (ten background memories), so that a real,
+        lasting change of light is absorbed by the background model without a foreground flash.
+        """
+        rob = self.params.robustness
+        corrected_small = small * self._gain
+        if self._bg_small is None:
+            self._bg_small = corrected_small.copy()
+        residual = exposure_gain(corrected_small, self._bg_small)
+        if abs(residual - 1.0) > rob.gain_tolerance:
+            self._gain = min(max(self._gain * residual, 0.25), 4.0)
+            corrected_small = small * self._gain
+        relax = 1.0 / (10.0 * self.params.segmentation.mog_history)
+        self._gain = 1.0 + (self._gain - 1.0) * (1.0 - relax)
+        cv2.accumulateWeighted(corrected_small, self._bg_small, 0.05)
+        if abs(self._gain - 1.0) < 0.003:
+            return gray
+        return cv2.convertScaleAbs(gray, alpha=self._gain)
+
+    def _update_rate(self, candidates: np.ndarray, fraction: float) -> None:
+        """Per-pixel and global candidate rates: running means over ~persistence_frames."""
+        tau = self.params.robustness.persistence_frames
+        alpha = max(1.0 / self._frames_seen, 1.0 / tau)
+        cv2.accumulateWeighted(candidates, self._rate, alpha / 255.0)
+        self._global_rate += alpha * (fraction - self._global_rate)
+
+    def _merge_correction(
+        self, area: np.ndarray, accepted: np.ndarray, structural: np.ndarray
+    ) -> float:
+        """Factor >= 1 restoring the streaks lost to the size rule by overlap (beyond eq. 31).
+
+        In heavy rain streaks cross and merge into blobs larger than ``max_area``: the HOS loses
+        them and S, hence R, would fall as rain gets heavier. The candidate area in merged blobs
+        (larger than ``max_area`` but far smaller than a car) is added back in proportion.
+        """
+        rob = self.params.robustness
+        if not rob.merge_correction:
+            return 1.0
+        accepted_area = float(area[accepted].sum())
+        if accepted_area <= 0.0:
+            return 1.0
+        merged = (
+            (area > self._max_area) & (area <= self._max_area * rob.merge_max_factor) & ~structural
+        )
+        return 1.0 + float(area[merged].sum()) / accepted_area
+
+
+def _as_gray(frame: np.ndarray) -> np.ndarray:
+    frame = np.asarray(frame)
+    if frame.ndim == 3 and frame.shape[2] == 3:
+        frame = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+    elif frame.ndim == 3 and frame.shape[2] == 1:
+        frame = frame[:, :, 0]
+    if frame.ndim != 2:
+        raise ValueError(f"expected a (H, W) grey or (H, W, 3) BGR frame, got shape {frame.shape}")
+    if frame.dtype != np.uint8:
+        raise ValueError(f"expected uint8 pixels, got {frame.dtype}")
+    return np.ascontiguousarray(frame)

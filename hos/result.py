@@ -1,0 +1,120 @@
+"""What the detector returns for one frame."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+__all__ = ["BlobClass", "FrameResult", "MixtureFit", "State"]
+
+
+class State:
+    """Why the camera can or cannot judge (the ``state`` field of the JSON contract)."""
+
+    OK = "ok"
+    WARMING_UP = "warming_up"
+    UNSTABLE = "unstable"  # the camera moves (wind, vibration): edges would look like rain
+    DARK = "dark"  # too little light to see streaks
+    SCENE_CHANGE = "scene_change"  # most of the image changed at once; relearning the background
+
+
+class BlobClass:
+    """Class of each connected component of the candidate mask (``FrameResult.blob_class``)."""
+
+    NONE = 0  # label 0 is the background
+    RAIN = 1  # drawn green in the overlay
+    NOISE = 2  # a streak-sized blob whose orientation is not the rain's: red
+    SIZE = 3  # rejected by the size rule: blue
+    STRUCTURE = 4  # rejected because it recurs in place (edges, foliage): blue too
+
+
+@dataclass(frozen=True)
+class MixtureFit:
+    """The Gaussian-uniform mixture of eq. 23 fitted to one HOS, or why it could not be.
+
+    A failed fit is a value, not an exception: ``ok`` is False and ``reason`` says why.
+    Angles in radians, ``mu`` in [0, pi).
+    """
+
+    ok: bool
+    pi: float = math.nan
+    mu: float = math.nan
+    sigma: float = math.nan
+    gof_d: float = math.nan
+    gof_ok: bool = False
+    iterations: int = 0
+    reason: str = ""
+
+
+@dataclass
+class FrameResult:
+    """Everything the detector knows about one frame.
+
+    The scalar fields map one-to-one onto the ``weatherd detect --jsonl`` contract through
+    :meth:`to_json`. The arrays are for drawing and for rain-pixel evaluation; they are views of
+    the detector's working buffers, valid until the next call to ``process``.
+    """
+
+    frame: int
+    t_s: float
+    rain: bool
+    state: str
+    fit: MixtureFit
+    pi_smoothed: float
+    mu_smoothed: float
+    sigma_smoothed: float
+    S: float
+    R: float
+    n_blobs: int
+    n_rain_blobs: int
+    #: (bins,) float64, the HOS of eq. 20 before normalisation (its sum is S).
+    histogram: np.ndarray = field(repr=False)
+    #: Diagnostics beyond the contract.
+    motion_px: float = 0.0
+    gain: float = 1.0
+    brightness: float = 0.0
+    candidate_fraction: float = 0.0
+    n_structural_blobs: int = 0
+    #: (H, W) int32 labels of the candidate mask and (n_labels,) uint8 class of each label.
+    labels: np.ndarray | None = field(default=None, repr=False)
+    blob_class: np.ndarray | None = field(default=None, repr=False)
+
+    def to_json(self) -> dict[str, Any]:
+        """The per-frame JSON object of the ``weatherd detect --jsonl`` contract."""
+        fit = self.fit
+        has_fit = fit.ok
+        return {
+            "frame": int(self.frame),
+            "t_s": round(float(self.t_s), 6),
+            "rain": bool(self.rain),
+            "state": self.state,
+            "pi": _num(fit.pi) if has_fit else None,
+            "mu_deg": _deg(fit.mu) if has_fit else None,
+            "sigma_deg": _deg(fit.sigma) if has_fit else None,
+            "gof_d": _num(fit.gof_d) if has_fit else None,
+            "gof_ok": bool(fit.gof_ok) if has_fit else None,
+            "pi_smoothed": _num(self.pi_smoothed),
+            "mu_smoothed_deg": _deg(self.mu_smoothed),
+            "sigma_smoothed_deg": _deg(self.sigma_smoothed),
+            "S": _num(self.S),
+            "R": _num(self.R),
+            "n_blobs": int(self.n_blobs),
+            "n_rain_blobs": int(self.n_rain_blobs),
+            "motion_px": _num(self.motion_px),
+            "gain": _num(self.gain),
+            "brightness": _num(self.brightness),
+            "n_structural_blobs": int(self.n_structural_blobs),
+        }
+
+
+def _num(x: float) -> float | None:
+    x = float(x)
+    return round(x, 6) if math.isfinite(x) else None
+
+
+def _deg(x: float) -> float | None:
+    x = float(x)
+    return round(math.degrees(x) % 180.0, 4) if math.isfinite(x) else None
