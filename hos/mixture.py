@@ -13,6 +13,7 @@ centres theta_i with masses y_i (eqs. 24-25). Two details differ from a literal 
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -24,11 +25,17 @@ from .result import MixtureFit
 __all__ = ["fit_mixture", "gaussian_bin_mass", "gof_distance", "mixture_bin_mass"]
 
 
+@functools.lru_cache(maxsize=8)
+def _shifted_edges(bins: int) -> np.ndarray:
+    """(5, bins + 1) bin edges of [0, pi) shifted by -2pi..2pi, for the wrapped normal."""
+    edges = np.arange(bins + 1) * (np.pi / bins)
+    return edges[None, :] + np.pi * np.arange(-2, 3)[:, None]
+
+
 def gaussian_bin_mass(mu: float, sigma: float, bins: int) -> np.ndarray:
     """(bins,) mass of the wrapped normal N(mu, sigma) over each bin of [0, pi); sums to 1."""
-    edges = np.arange(bins + 1) * (np.pi / bins)
-    cdf = sum(ndtr((edges - mu + k * np.pi) / sigma) for k in (-2, -1, 0, 1, 2))
-    mass = np.diff(cdf)
+    cdf = ndtr((_shifted_edges(bins) - mu) / sigma).sum(axis=0)
+    mass = cdf[1:] - cdf[:-1]
     return mass / mass.sum()
 
 
@@ -58,15 +65,51 @@ def _initial_guess(theta: np.ndarray, y: np.ndarray) -> tuple[float, float, floa
     return float(total / y.sum()), mu, sigma
 
 
+def _em_step(
+    theta: np.ndarray, y: np.ndarray, params: np.ndarray, sigma_min: float
+) -> tuple[np.ndarray, float]:
+    """One EM step (eqs. 24-25) from ``params = (pi, mu, sigma)``; also the log-likelihood of
+    ``params`` (computed on the way, for free)."""
+    pi, mu, sigma = params
+    bins = y.size
+    gauss = gaussian_bin_mass(mu, sigma, bins) * (bins / np.pi)  # density over each bin
+    rain = pi * gauss
+    total = rain + (1.0 - pi) / np.pi
+    loglik = float(y @ np.log(total))
+    w = y * rain / total  # (1 - z_i) y_i, z_i of eq. 24
+    sw = float(w.sum())
+    if sw <= 1e-12:
+        return np.array([0.0, mu, np.pi / 2]), loglik
+    d = wrap_diff(theta, mu)  # eq. 25, with wrapped distances
+    shift = float(w @ d) / sw
+    d -= shift
+    sigma_new = max(math.sqrt(float(w @ (d * d)) / sw), sigma_min)
+    return np.array([sw, float(np.mod(mu + shift, np.pi)), sigma_new]), loglik
+
+
+def _clamp(params: np.ndarray, sigma_min: float) -> np.ndarray:
+    return np.array(
+        [
+            min(max(params[0], 1e-4), 1.0 - 1e-4),
+            float(np.mod(params[1], np.pi)),
+            min(max(params[2], sigma_min), np.pi),
+        ]
+    )
+
+
 def fit_mixture(
     histogram: np.ndarray,
     *,
     max_iter: int = 100,
-    tol: float = 1e-6,
+    tol: float = 1e-4,
     gof_dc: float = 0.06,
     sigma_min: float = math.radians(1.0),
 ) -> MixtureFit:
     """Fit eq. 23 to a HOS by EM (eqs. 24-25) and test the fit (eq. 26).
+
+    EM converges slowly on the flat histograms of clear weather (often 100 steps). Each round
+    here makes two EM steps and one SQUAREM extrapolation (Varadhan & Roland, 2008), kept only
+    when it does not lower the likelihood, so the result is EM's, in a fraction of the steps.
 
     Parameters
     ----------
@@ -75,44 +118,42 @@ def fit_mixture(
     Returns
     -------
     MixtureFit; ``ok`` is False (with ``reason``) when the histogram is empty or flat.
-    ``gof_ok`` is ``gof_d <= gof_dc``.
+    ``gof_ok`` is ``gof_d <= gof_dc``. ``iterations`` counts EM steps.
     """
     y = np.asarray(histogram, dtype=np.float64)
-    total = y.sum()
     if y.ndim != 1 or y.size < 8:
         return MixtureFit(ok=False, reason="histogram must be 1-D with at least 8 bins")
+    total = y.sum()
     if not np.isfinite(total) or total <= 0.0:
         return MixtureFit(ok=False, reason="empty histogram")
-    bins = y.size
     y = y / total
-    theta = bin_centers(bins)
-    width = np.pi / bins
+    theta = bin_centers(y.size)
     start = _initial_guess(theta, y)
     if start is None:
         return MixtureFit(ok=False, reason="flat histogram")
-    pi, mu, sigma = start
-    pi = min(max(pi, 0.01), 0.99)
-    sigma = max(sigma, sigma_min)
-    uniform = 1.0 / np.pi
-    iterations = 0
-    for iterations in range(1, max_iter + 1):  # noqa: B007 (the count is reported)
-        gauss = gaussian_bin_mass(mu, sigma, bins) / width
-        # E-step (eq. 24): probability that bin i is noise.
-        z = (1.0 - pi) * uniform / (pi * gauss + (1.0 - pi) * uniform)
-        w = (1.0 - z) * y
-        sw = w.sum()
-        if sw <= 1e-12:
-            pi, sigma = 0.0, math.pi / 2
+    x0 = _clamp(np.array(start), sigma_min)
+    steps = 0
+    while steps < max_iter:
+        x1, ll0 = _em_step(theta, y, x0, sigma_min)
+        x2, ll1 = _em_step(theta, y, x1, sigma_min)
+        steps += 2
+        r = _delta(x1, x0)
+        v = _delta(x2, x1) - r
+        del ll0
+        if float(np.max(np.abs(_delta(x2, x1)))) < tol or x2[0] <= 0.0:
+            x0 = x2
             break
-        # M-step (eq. 25) with wrapped distances.
-        mu_new = float(np.mod(mu + np.sum(w * wrap_diff(theta, mu)) / sw, np.pi))
-        d = wrap_diff(theta, mu_new)
-        sigma_new = max(math.sqrt(float(np.sum(w * d * d) / sw)), sigma_min)
-        pi_new = float(sw)  # sum(y) == 1
-        change = max(abs(pi_new - pi), abs(float(wrap_diff(mu_new, mu))), abs(sigma_new - sigma))
-        pi, mu, sigma = pi_new, mu_new, sigma_new
-        if change < tol:
-            break
+        alpha = -math.sqrt(float(r @ r) / max(float(v @ v), 1e-300))
+        alpha = min(alpha, -1.0)  # alpha = -1 is plain EM (x2)
+        candidate = _clamp(x0 - 2.0 * alpha * r + alpha * alpha * v, sigma_min)
+        x_next, ll_candidate = _em_step(theta, y, candidate, sigma_min)
+        steps += 1
+        # Keep the extrapolation only if it is at least as likely as the last EM iterate
+        # (whose likelihood came free with the second step); else fall back to plain EM.
+        x0 = _clamp(x_next, sigma_min) if ll_candidate >= ll1 else x2
+    pi, mu, sigma = (float(v) for v in x0)
+    if pi <= 0.0:
+        sigma = math.pi / 2
     d_gof = gof_distance(y, pi, mu, sigma)
     return MixtureFit(
         ok=True,
@@ -121,5 +162,12 @@ def fit_mixture(
         sigma=sigma,
         gof_d=d_gof,
         gof_ok=d_gof <= gof_dc,
-        iterations=iterations,
+        iterations=steps,
     )
+
+
+def _delta(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a - b for parameter vectors, the mean's difference wrapped (pi-periodic)."""
+    d = a - b
+    d[1] = float(wrap_diff(a[1], b[1]))
+    return d

@@ -71,7 +71,8 @@ class MixtureParams:
     """EM for the Gaussian-uniform mixture (section 4, eqs. 23-26)."""
 
     max_iter: int = 100
-    tol: float = 1e-6
+    #: Convergence: largest change of Pi (fraction) or of mu, sigma (radians) between steps.
+    tol: float = 1e-4
     #: Goodness-of-fit threshold Dc of eq. 26 (paper: 0.06).
     gof_dc: float = 0.06
     #: Beyond the paper: D of eq. 26 is a Kolmogorov-Smirnov distance, whose sampling noise
