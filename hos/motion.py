@@ -22,9 +22,16 @@ __all__ = ["exposure_gain", "global_translation", "reduce"]
 
 
 def reduce(gray: np.ndarray, scale: int) -> np.ndarray:
-    """(H // scale, W // scale) float32 area-averaged copy of ``gray``."""
+    """(H // scale, W // scale) float32 area-averaged copy of ``gray``.
+
+    The image is cropped to a multiple of ``scale`` first: OpenCV's area resampling has a fast
+    path for whole-number factors only (1 ms against 0.1 ms at 960x540).
+    """
     h, w = gray.shape[:2]
-    small = cv2.resize(gray, (max(w // scale, 8), max(h // scale, 8)), interpolation=cv2.INTER_AREA)
+    hs, ws = max(h // scale, 1), max(w // scale, 1)
+    if hs * scale <= h and ws * scale <= w:
+        gray = gray[: hs * scale, : ws * scale]
+    small = cv2.resize(gray, (ws, hs), interpolation=cv2.INTER_AREA)
     return small.astype(np.float32)
 
 
