@@ -104,6 +104,11 @@ class DecisionParams:
     min_blobs: int = 12
     #: Beyond the paper: a fitted Gaussian wider than this is not a streak population.
     sigma_max: float = math.radians(30.0)
+    #: Beyond the paper: precipitation falls. A streak population whose mean orientation is
+    #: further than ``max_tilt`` from the camera's vertical (``vertical``, 90 degrees for an
+    #: upright camera; set it for a rolled one) is traffic, lane markings or vanishing lines.
+    vertical: float = math.radians(90.0)
+    max_tilt: float = math.radians(60.0)
     #: S_b of section 6: a blob is rain when P(rain|theta)/P(noise|theta) > S_b (paper: 0.6).
     s_b: float = 0.6
 
@@ -124,10 +129,12 @@ class RobustnessParams:
     #: persistence_ratio * global candidate rate)`` is structural noise, not rain.
     persistence_floor: float = 0.06
     persistence_ratio: float = 4.0
-    #: Global motion (camera shake) measured by phase correlation on a reduced image.
-    motion_scale: int = 4
-    #: A frame moved by more than this (pixels at full resolution) carries no rain evidence.
-    motion_frame_px: float = 0.75
+    #: Camera offset from its learnt position (pixels at full resolution), measured on an image
+    #: reduced to about 240 px wide against a reference that learns over ``reference_frames``.
+    #: A frame offset by more than ``motion_frame_px`` carries no rain evidence: its edges are
+    #: in the foreground.
+    reference_frames: int = 100
+    motion_frame_px: float = 0.3
     #: Fraction of recent frames that moved above which the camera is declared ``unstable``.
     motion_unstable_fraction: float = 0.3
     motion_window_frames: int = 25

@@ -26,6 +26,7 @@ import math
 import cv2
 import numpy as np
 
+from .angles import wrap_diff
 from .background import FrameDiffSegmenter, MogSegmenter
 from .blobs import find_blobs, size_rule, structure_rule
 from .histogram import hos_histogram
@@ -38,7 +39,7 @@ from .smoothing import ParameterSmoother
 
 __all__ = ["HosDetector", "classify_blobs"]
 
-_GAIN_SCALE = 8  # reduction of the image used for brightness, gain and motion
+_REDUCED_WIDTH = 240  # the image used for brightness, gain and motion is about this wide
 
 
 def classify_blobs(
@@ -85,7 +86,7 @@ class HosDetector:
         self._relearn = 0
         self._rate: np.ndarray | None = None
         self._global_rate = 0.0
-        self._prev_small: np.ndarray | None = None
+        self._ref_small: np.ndarray | None = None
         self._bg_small: np.ndarray | None = None
         self._gain = 1.0
         self._moving = 0.0
@@ -103,7 +104,8 @@ class HosDetector:
                 roi = cv2.resize(roi, (w, h), interpolation=cv2.INTER_NEAREST)
             self._roi = roi
             self._roi_area = max(cv2.countNonZero(roi), 1)
-        roi_small = None if self._roi is None else reduce(self._roi, _GAIN_SCALE) > 127
+        self._scale = max(w // _REDUCED_WIDTH, 1)
+        roi_small = None if self._roi is None else reduce(self._roi, self._scale) > 127
         self._roi_small = roi_small
         seg = self.params.segmentation
         scale = (h / seg.size_reference_height) ** 2
@@ -131,18 +133,24 @@ class HosDetector:
         self._frames_seen += 1
 
         # 1. global measurements (beyond the paper)
-        small = reduce(gray, _GAIN_SCALE)
+        small = reduce(gray, self._scale)
         in_roi = small if self._roi_small is None else small[self._roi_small]
         brightness = float(in_roi.mean()) if in_roi.size else 0.0
+        frame, corrected_small = self._compensate_exposure(gray, small)
+        # Edges light up in the foreground in proportion to the camera's offset from where the
+        # background model learnt it, not to the frame-to-frame motion: measure the offset
+        # against a reference image that learns about as slowly as the model (on the
+        # exposure-corrected image, so that a gain step is not read as motion).
         motion_px = 0.0
-        if self._prev_small is not None:
-            dx, dy = global_translation(self._prev_small, small)
-            motion_px = math.hypot(dx, dy) * _GAIN_SCALE
-        self._prev_small = small
+        if self._ref_small is None:
+            self._ref_small = corrected_small.copy()
+        else:
+            dx, dy = global_translation(self._ref_small, corrected_small)
+            motion_px = math.hypot(dx, dy) * self._scale
+            cv2.accumulateWeighted(corrected_small, self._ref_small, 1.0 / rob.reference_frames)
         moved = motion_px > rob.motion_frame_px
         k = 1.0 / rob.motion_window_frames
         self._moving += k * (float(moved) - self._moving)
-        frame = self._compensate_exposure(gray, small)
 
         # 2. candidate pixels
         learning_rate = 0.05 if self._relearn > 0 else -1.0
@@ -215,6 +223,7 @@ class HosDetector:
             and fit.gof_ok
             and idx.size >= dp.min_blobs
             and fit.sigma <= dp.sigma_max
+            and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
         ):
             smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma))
         else:
@@ -276,7 +285,9 @@ class HosDetector:
             return State.UNSTABLE
         return State.OK
 
-    def _compensate_exposure(self, gray: np.ndarray, small: np.ndarray) -> np.ndarray:
+    def _compensate_exposure(
+        self, gray: np.ndarray, small: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Undo global gain steps (auto-exposure) before the background model sees them.
 
         The applied gain relaxes back to 1 slowly (ten background memories), so that a real,
@@ -294,8 +305,8 @@ class HosDetector:
         self._gain = 1.0 + (self._gain - 1.0) * (1.0 - relax)
         cv2.accumulateWeighted(corrected_small, self._bg_small, 0.05)
         if abs(self._gain - 1.0) < 0.003:
-            return gray
-        return cv2.convertScaleAbs(gray, alpha=self._gain)
+            return gray, corrected_small
+        return cv2.convertScaleAbs(gray, alpha=self._gain), corrected_small
 
     def _update_rate(self, candidates: np.ndarray, fraction: float) -> None:
         """Per-pixel and global candidate rates: running means over ~persistence_frames."""
