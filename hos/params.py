@@ -121,7 +121,7 @@ class RobustnessParams:
     """
 
     #: Frames of warm-up during which the background model is learnt and no verdict is given.
-    warmup_frames: int = 40
+    warmup_frames: int = 60
     #: Time constant (frames) of the per-pixel candidate rate used to find structural noise:
     #: rain lands at random places, edges of a shaking camera or swaying leaves recur in place.
     persistence_frames: int = 50

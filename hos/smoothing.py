@@ -50,7 +50,11 @@ class ParameterSmoother:
         kf.x = np.array([[0.0], [math.pi / 2], [math.radians(20.0)]])
         kf.F = np.eye(3)
         kf.H = np.eye(3)
-        kf.P = np.diag([p.measurement_var, 1.0, 1.0])
+        # Start at the steady-state variance of a filter updated every frame (the root of
+        # P^2 - Q P - Q R = 0): one early measurement then moves Pi no more than a late one.
+        q, r = p.process_var, p.measurement_var
+        steady = 0.5 * (q + math.sqrt(q * q + 4.0 * q * r)) - q
+        kf.P = np.diag([steady, 1.0, 1.0])
         kf.Q = np.eye(3) * p.process_var
         kf.R = np.eye(3) * p.measurement_var
         self._kf = kf

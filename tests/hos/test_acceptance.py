@@ -1,0 +1,227 @@
+"""Acceptance: the paper's quantitative claims and our robustness goals, on rendered data.
+
+Every scene is seeded; every figure asserted here is also reported in docs/figures.md.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from hos import DetectorParams, HosDetector, State
+from hos.blobs import find_blobs
+from hos.histogram import hos_histogram
+from hos.mixture import fit_mixture
+from hos.moments import orientation_uncertainty
+from hos.pipeline import classify_blobs
+from hos.render import Scene, SceneParams, SnowParams, StreakParams, render_streaks
+
+pytestmark = pytest.mark.slow
+
+HP = DetectorParams().histogram
+W, H = 640, 360
+WARMUP = 45  # frames excluded from rates: the detector says warming_up for 40
+
+
+def _fit_streaks(layer, *, min_area=4, max_area=None):
+    """Blobs of a rendered streak layer -> HOS -> EM, as the pipeline does it."""
+    blobs = find_blobs(layer.mask.astype(np.uint8) * 255)
+    m = blobs.moments
+    ok = m.area >= min_area
+    if max_area is not None:
+        ok &= m.area <= max_area
+    ok[0] = False
+    idx = np.flatnonzero(ok)
+    dth = orientation_uncertainty(
+        m.m20[idx], m.m11[idx], m.m02[idx], dm=HP.dm, lo=HP.dtheta_min, hi=HP.dtheta_max
+    )
+    fit = fit_mixture(hos_histogram(m.theta[idx], dth, m.a[idx]))
+    return blobs, idx, fit
+
+
+def _run(params: SceneParams, n: int, *, seed: int = 1, detector: HosDetector | None = None):
+    scene = Scene(W, H, seed=seed, params=params)
+    det = detector or HosDetector()
+    out = []
+    for i in range(n):
+        gray, truth = scene.frame(i)
+        out.append((det.process(gray, i / params.fps), truth))
+    return out
+
+
+# -- Fig. 6: the HOS estimates the streaks' orientation distribution ---------------------------
+@pytest.mark.parametrize("length", [5, 7, 11, 15, 21])
+def test_fig6_hos_peak_matches_the_streak_distribution(length):
+    """Paper: relative errors under 5 % on the mean and 10 % on the std once streaks are longer
+    than 5 px (350 streaks, mu 55, sigma 10). At exactly 5 px we measure 5.2 % and 12 %: a
+    5-pixel blob's own orientation is uncertain by several degrees."""
+    e_mu, e_sigma = [], []
+    for seed in range(5):
+        layer = render_streaks(
+            (480, 640),
+            StreakParams(mu_deg=55, sigma_deg=10, length_px=length, count=350),
+            np.random.default_rng(seed),
+        )
+        _, _, fit = _fit_streaks(layer, min_area=2, max_area=4 * (length + 2))
+        assert fit.ok
+        e_mu.append(abs(55 - math.degrees(fit.mu)) / 55)  # eq. 21
+        e_sigma.append(abs(10 - math.degrees(fit.sigma)) / 10)  # eq. 22
+    mu_bound, sigma_bound = (0.06, 0.15) if length <= 5 else (0.05, 0.10)
+    assert np.mean(e_mu) < mu_bound
+    assert np.mean(e_sigma) < sigma_bound
+
+
+def test_section_4_3_em_on_rendered_streaks():
+    """mu 65, sigma 10, 40 % uniform streaks: within 2 deg, 2 deg and 5 points on average
+    (paper: 64.3, 11.2, 37 %)."""
+    est = []
+    for seed in range(6):
+        layer = render_streaks(
+            (480, 640),
+            StreakParams(mu_deg=65, sigma_deg=10, noise_fraction=0.4, count=600),
+            np.random.default_rng(seed),
+        )
+        _, _, fit = _fit_streaks(layer)
+        est.append((math.degrees(fit.mu), math.degrees(fit.sigma), 1 - fit.pi))
+    mu, sigma, uniform = np.mean(est, axis=0)
+    assert abs(mu - 65) < 2.0
+    assert abs(sigma - 10) < 2.0
+    assert abs(uniform - 0.40) < 0.05
+
+
+def test_rotating_the_rain_rotates_the_estimate():
+    fits = []
+    for mu_deg in (70, 100):
+        layer = render_streaks(
+            (360, 640), StreakParams(mu_deg=mu_deg, count=400), np.random.default_rng(9)
+        )
+        fits.append(_fit_streaks(layer)[2])
+    shift = math.degrees(fits[1].mu - fits[0].mu)
+    assert shift == pytest.approx(30, abs=1.5)
+    assert fits[1].sigma == pytest.approx(fits[0].sigma, rel=0.15)
+
+
+# -- Fig. 10: rain pixels ------------------------------------------------------------------------
+def _dice(noise_fraction: float, s_b: float, seed: int) -> float:
+    layer = render_streaks(
+        (480, 640),
+        StreakParams(mu_deg=80, sigma_deg=10, noise_fraction=noise_fraction, count=400),
+        np.random.default_rng(seed),
+    )
+    blobs, idx, fit = _fit_streaks(layer)
+    is_rain = classify_blobs(
+        blobs.moments.theta[idx], pi=fit.pi, mu=fit.mu, sigma=fit.sigma, s_b=s_b
+    )
+    lut = np.zeros(blobs.n_labels, bool)
+    lut[idx[is_rain]] = True
+    pred, truth = lut[blobs.labels], layer.rain_mask
+    tp = np.count_nonzero(pred & truth)
+    return 2 * tp / (2 * tp + np.count_nonzero(pred & ~truth) + np.count_nonzero(~pred & truth))
+
+
+@pytest.mark.parametrize("noise_fraction", [0.1, 0.3])
+def test_fig10_rain_pixel_dice(noise_fraction):
+    """Paper: Dice 90.9 % at S_b = 0.56 on synthetic streaks with noise; flat for S_b in
+    [0.1, 0.7]."""
+    dice = np.mean([_dice(noise_fraction, 0.56, seed) for seed in range(3)])
+    assert dice >= 0.90
+    flat = [np.mean([_dice(noise_fraction, s_b, seed) for seed in range(2)]) for s_b in (0.2, 0.7)]
+    assert max(flat) - min(flat) < 0.03
+
+
+# -- Section 5: the decision ---------------------------------------------------------------------
+def test_latency_clear_rain_clear():
+    """Paper (simulator): ~50 frames clear -> rain, ~25 rain -> clear. Goal: <= 25 each way."""
+    schedule = [0] * 150 + [1] * 150 + [0] * 150
+    params = SceneParams(
+        cars=2, pedestrians=2, rain=StreakParams(mu_deg=80, sigma_deg=8), schedule=schedule
+    )
+    res = _run(params, 450)
+    rain = np.array([r.rain for r, _ in res])
+    assert not rain[:150].any()
+    onset = int(np.argmax(rain[150:]))
+    assert rain[150 + onset] and onset <= 25
+    end = int(np.argmax(~rain[300:]))
+    assert not rain[300 + end] and end <= 25
+    assert not rain[300 + end :].any()  # and it stays clear
+    assert rain[150 + onset : 300].mean() >= 0.98
+
+
+CLEAR_CASES = {
+    "cars_and_pedestrians": SceneParams(cars=4, pedestrians=4),
+    "foliage_sway": SceneParams(foliage_sway_px=3.0),
+    "exposure_steps": SceneParams(exposure_steps=True, exposure_interval_s=2.0),
+    "noise_and_jpeg": SceneParams(sensor_noise=3.0, jpeg_quality=60),
+    "slight_shake": SceneParams(shake_px=0.2),
+    "shake_over_vertical_edges": SceneParams(shake_px=0.6),
+    "everything": SceneParams.busy(),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CLEAR_CASES))
+def test_clear_weather_stays_clear(case):
+    """Goal: under 3 % false positives in every robustness case (paper: 7 % overall)."""
+    res = _run(CLEAR_CASES[case], 300)
+    post = [r for r, _ in res[WARMUP:]]
+    fp = np.mean([r.rain for r in post])
+    assert fp < 0.03, (case, fp)
+
+
+def test_shaking_camera_says_unstable_rather_than_guess():
+    res = _run(SceneParams(shake_px=1.0), 200)
+    states = [r.state for r, _ in res[WARMUP:]]
+    assert states.count(State.UNSTABLE) / len(states) > 0.9
+    assert not any(r.rain for r, _ in res)
+
+
+def test_dark_scene_says_dark():
+    res = _run(SceneParams(darkness=0.93, rain=StreakParams()), 80)
+    assert all(r.state in (State.DARK, State.WARMING_UP) for r, _ in res)
+    assert not any(r.rain for r, _ in res)
+
+
+@pytest.mark.parametrize(
+    "name,params,min_tpr",
+    [
+        (
+            "rain_through_traffic",
+            SceneParams.busy(shake_px=0.0, rain=StreakParams(mu_deg=75)),
+            0.95,
+        ),
+        ("light_rain", SceneParams(cars=2, rain=StreakParams(count=80, brightness=25)), 0.95),
+        ("snow", SceneParams(cars=2, snow=SnowParams()), 0.85),
+    ],
+)
+def test_precipitation_is_detected(name, params, min_tpr):
+    res = _run(params, 250)
+    tpr = np.mean([r.rain for r, _ in res[WARMUP + 25 :]])
+    assert tpr >= min_tpr, (name, tpr)
+
+
+# -- Section 7: intensity ------------------------------------------------------------------------
+def test_intensity_grows_with_rain_density_into_heavy_rain():
+    """R = S * Pi (eq. 31) must keep rising when streaks overlap and merge (Fig. 14). 2000
+    streaks cover ~23 % of the frame in every frame."""
+    means = []
+    for count in (100, 300, 1000, 2000):
+        params = SceneParams(rain=StreakParams(mu_deg=85, count=count), schedule=[0] * 50 + [1])
+        res = _run(params, 130, seed=2)
+        assert all(r.rain for r, _ in res[80:])
+        means.append(np.mean([r.R for r, _ in res[80:]]))
+    assert all(b > 1.3 * a for a, b in itertools.pairwise(means)), means
+
+
+# -- Real clear-weather clips ----------------------------------------------------------------------
+@pytest.mark.parametrize("name", ["motorway_clear_320x240.avi", "road_surface_clear_640x360.avi"])
+def test_real_clear_clips_say_no_rain(shared_fixtures, name):
+    import av
+
+    det = HosDetector()
+    rain = 0
+    with av.open(str(shared_fixtures / "video" / name)) as container:
+        for i, frame in enumerate(container.decode(video=0)):
+            rain += det.process(frame.to_ndarray(format="gray"), i / 25).rain
+    assert rain == 0
