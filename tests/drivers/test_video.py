@@ -39,6 +39,9 @@ def write_clip(path: Path, frames: list[np.ndarray], *, fps: int = 25, codec: st
     with av.open(str(path), mode="w") as container:
         stream = container.add_stream(codec, rate=Fraction(fps))
         stream.width, stream.height, stream.pix_fmt = width, height, "yuv420p"
+        stream.bit_rate = 4_000_000
+        if codec == "mpeg4":
+            stream.codec_context.max_b_frames = 2  # packed B-frames in AVI: reordered times
         for i, gray in enumerate(frames):
             frame = av.VideoFrame.from_ndarray(gray, format="gray")
             frame.pts = i
@@ -76,15 +79,19 @@ def test_real_clip_decodes_every_frame_with_increasing_times(name: str) -> None:
     t = np.array([f.t_s for f in frames])
     assert t[0] == 0.0
     assert np.all(np.diff(t) > 0)
-    assert t[-1] == pytest.approx(expected / video.fps, rel=0.02)
+    # regular steps of one frame period: the motorway clip is a DivX AVI with packed B-frames,
+    # whose frames carry decode-order times (1, 4, 6, 5, 7, 9, 8...) until sorted
+    steps = np.diff(t) * video.fps
+    assert np.mean(np.abs(steps - 1.0) < 1e-6) > 0.99
     for f in frames[:: expected // 5]:
         assert f.gray.shape == (height, width)
         assert f.gray.dtype == np.uint8
         assert f.gray.flags.c_contiguous and f.gray.flags.owndata
 
 
-def test_luma_is_the_y_plane_despite_padded_lines() -> None:
+def test_luma_equals_ffmpeg_grey_despite_padded_lines() -> None:
     # The 320-px-wide fixture has 384-byte lines: a stride-blind copy would shear the image.
+    # Its luma is limited-range: stretched to 0-255 exactly as FFmpeg's conversion does.
     path = fixture_clip("motorway_clear_320x240.avi")
     with av.open(str(path)) as container:
         frame = next(container.decode(video=0))
@@ -141,8 +148,8 @@ def test_frames_come_in_display_order_with_their_times(
         frames = list(video)
         assert video.fps == 25
     assert len(frames) == 30
-    levels = [int(np.median(f.gray)) for f in frames]
-    assert levels == sorted(levels)
+    levels = np.array([np.median(f.gray) for f in frames])
+    np.testing.assert_allclose(levels, 20 + 4 * np.arange(30), atol=2)  # in order, full range
     np.testing.assert_allclose([f.t_s for f in frames], np.arange(30) / 25, atol=1e-6)
 
 

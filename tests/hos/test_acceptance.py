@@ -23,7 +23,7 @@ pytestmark = pytest.mark.slow
 
 HP = DetectorParams().histogram
 W, H = 640, 360
-WARMUP = 45  # frames excluded from rates: the detector says warming_up for 40
+WARMUP = 65  # frames excluded from rates: the detector says warming_up for 60
 
 
 def _fit_streaks(layer, *, min_area=4, max_area=None):
