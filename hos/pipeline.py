@@ -22,6 +22,7 @@ per-pixel candidate rate and the Kalman filter.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import cv2
 import numpy as np
@@ -37,7 +38,7 @@ from .params import DetectorParams
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
 
-__all__ = ["HosDetector", "classify_blobs"]
+__all__ = ["HosDetector", "Segmented", "classify_blobs"]
 
 _REDUCED_WIDTH = 240  # the image used for brightness, gain and motion is about this wide
 
@@ -61,6 +62,27 @@ def classify_blobs(
     return ratio > s_b
 
 
+@dataclass(frozen=True)
+class Segmented:
+    """What :meth:`HosDetector.segment` hands to :meth:`HosDetector.analyse` for one frame.
+
+    The two stages share no mutable state, so a caller may run ``segment`` of frame n+1 on a
+    worker thread while ``analyse`` of frame n runs (``daemon.detection`` does).
+    """
+
+    frame: int
+    t_s: float
+    state: str
+    #: (H, W) uint8, 255 where candidate, restricted to the region of interest
+    candidates: np.ndarray
+    candidate_fraction: float
+    #: No rain evidence either way (warming up, scene change, camera offset this frame)
+    hold: bool
+    motion_px: float
+    gain: float
+    brightness: float
+
+
 class HosDetector:
     """Rain/snow detector of Bossu, Hautière & Tarel (IJCV 2011), made robust for roadside use.
 
@@ -75,22 +97,35 @@ class HosDetector:
         self.params = params or DetectorParams()
         self._roi_input = None if roi is None else (np.asarray(roi) != 0).astype(np.uint8) * 255
         self._shape: tuple[int, int] | None = None
+        self._index = -1
+        self._reset_segmentation()
+        # analyse()'s state: the per-pixel candidate rate and the Kalman filter
         self._smoother = ParameterSmoother(self.params.decision)
-        self._reset_image_state()
+        self._rate: np.ndarray | None = None
+        self._global_rate = 0.0
+        self._frames_analysed = 0
 
-    # -- state ---------------------------------------------------------------------------
-    def _reset_image_state(self) -> None:
+    # -- the frame -----------------------------------------------------------------------
+    def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
+        """Run every step on one frame: ``analyse(segment(gray, t_s))``.
+
+        Parameters
+        ----------
+        gray : (H, W) uint8 grey frame (a (H, W, 3) BGR frame is converted)
+        t_s : float, time of the frame in seconds
+        """
+        return self.analyse(self.segment(gray, t_s))
+
+    # -- stage 1: global measurements and candidate pixels -----------------------------------
+    def _reset_segmentation(self) -> None:
         seg = self.params.segmentation
         self._segmenter = MogSegmenter(seg) if seg.method == "mog" else FrameDiffSegmenter(seg)
         self._frames_seen = 0
         self._relearn = 0
-        self._rate: np.ndarray | None = None
-        self._global_rate = 0.0
         self._ref_small: np.ndarray | None = None
         self._bg_small: np.ndarray | None = None
         self._gain = 1.0
         self._moving = 0.0
-        self._index = getattr(self, "_index", -1)
 
     def _setup(self, shape: tuple[int, int]) -> None:
         self._shape = shape
@@ -105,31 +140,17 @@ class HosDetector:
             self._roi = roi
             self._roi_area = max(cv2.countNonZero(roi), 1)
         self._scale = max(w // _REDUCED_WIDTH, 1)
-        roi_small = None if self._roi is None else reduce(self._roi, self._scale) > 127
-        self._roi_small = roi_small
-        seg = self.params.segmentation
-        scale = (h / seg.size_reference_height) ** 2
-        self._min_area = seg.min_area * scale
-        self._max_area = seg.max_area * scale
-        self._rate = np.zeros(shape, np.float32)
+        self._roi_small = None if self._roi is None else reduce(self._roi, self._scale) > 127
 
-    # -- the frame -----------------------------------------------------------------------
-    def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
-        """Run every step on one frame.
-
-        Parameters
-        ----------
-        gray : (H, W) uint8 grey frame (a (H, W, 3) BGR frame is converted)
-        t_s : float, time of the frame in seconds
-        """
+    def segment(self, gray: np.ndarray, t_s: float) -> Segmented:
+        """Steps 1-2: global measurements, exposure, background model, candidate pixels."""
         gray = _as_gray(gray)
         self._index += 1
         if gray.shape != self._shape:
             if self._shape is not None:  # the camera changed resolution: start over
-                self._reset_image_state()
+                self._reset_segmentation()
             self._setup(gray.shape)
-        p = self.params
-        rob = p.robustness
+        rob = self.params.robustness
         self._frames_seen += 1
 
         # 1. global measurements (beyond the paper)
@@ -156,123 +177,28 @@ class HosDetector:
         learning_rate = 0.05 if self._relearn > 0 else -1.0
         self._relearn = max(self._relearn - 1, 0)
         candidates = self._segmenter.apply(frame, learning_rate=learning_rate)
-        foreground_fraction = getattr(self._segmenter, "foreground_fraction", 0.0)
+        foreground_fraction = self._segmenter.foreground_fraction
         if self._roi is not None:
             candidates = cv2.bitwise_and(candidates, self._roi)
-        n_candidates = cv2.countNonZero(candidates)
-        candidate_fraction = n_candidates / self._roi_area
+        candidate_fraction = cv2.countNonZero(candidates) / self._roi_area
         if (
             self._frames_seen > rob.warmup_frames
             and max(candidate_fraction, foreground_fraction) > rob.scene_change_fraction
         ):
             self._relearn = rob.warmup_frames
-
-        # 3. blobs, size rule, structure rule
-        blobs = find_blobs(candidates)
-        mom = blobs.moments
-        structural = structure_rule(
-            blobs,
-            self._rate,
-            global_rate=self._global_rate,
-            floor=rob.persistence_floor,
-            ratio=rob.persistence_ratio,
-        )
-        self._update_rate(candidates, candidate_fraction)
-        sized = size_rule(mom.area, min_area=self._min_area, max_area=self._max_area)
-        sized[0] = False
-        accepted = sized & ~structural
-        idx = np.flatnonzero(accepted)
-
-        # 4-5. orientation, HOS, mixture
-        hp = p.histogram
-        dtheta = orientation_uncertainty(
-            mom.m20[idx], mom.m11[idx], mom.m02[idx], dm=hp.dm, lo=hp.dtheta_min, hi=hp.dtheta_max
-        )
-        theta = mom.theta[idx]
-        hist = hos_histogram(
-            theta,
-            dtheta,
-            mom.a[idx],
-            bins=hp.bins,
-            dtheta_min=hp.dtheta_min,
-            dtheta_max=hp.dtheta_max,
-        )
-        S = float(hist.sum())
-        if idx.size:
-            mp = p.mixture
-            weights = mom.a[idx]
-            n_eff = float(weights.sum()) ** 2 / float(np.sum(weights * weights))
-            fit = fit_mixture(
-                hist,
-                max_iter=mp.max_iter,
-                tol=mp.tol,
-                gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
-                sigma_min=mp.sigma_min,
-            )
-        else:
-            fit = MixtureFit(ok=False, reason="no blobs")
-
-        # 6. state and decision
         state = self._state(brightness)
-        dp = p.decision
-        if state in (State.WARMING_UP, State.SCENE_CHANGE) or moved:
-            smoothed = self._smoother.hold()
-        elif (
-            state == State.OK
-            and fit.ok
-            and fit.gof_ok
-            and idx.size >= dp.min_blobs
-            and fit.sigma <= dp.sigma_max
-            and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
-        ):
-            smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma))
-        else:
-            smoothed = self._smoother.update(None)
-        rain = smoothed.rain and state == State.OK
-
-        # 7. rain pixels
-        blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
-        blob_class[0] = BlobClass.NONE
-        blob_class[structural] = BlobClass.STRUCTURE
-        if smoothed.rain:
-            model = (smoothed.pi, smoothed.mu, smoothed.sigma)
-        elif fit.ok and fit.gof_ok:
-            model = (fit.pi, fit.mu, fit.sigma)
-        else:
-            model = None
-        if model is not None and 0.0 < model[0] < 1.0:
-            is_rain = classify_blobs(theta, pi=model[0], mu=model[1], sigma=model[2], s_b=dp.s_b)
-        else:
-            is_rain = np.zeros(idx.size, dtype=bool)
-        blob_class[idx] = np.where(is_rain, BlobClass.RAIN, BlobClass.NOISE)
-
-        # 8. intensity
-        R = S * smoothed.pi * self._merge_correction(mom.area, accepted, structural)
-
-        return FrameResult(
+        return Segmented(
             frame=self._index,
             t_s=float(t_s),
-            rain=rain,
             state=state,
-            fit=fit,
-            pi_smoothed=smoothed.pi,
-            mu_smoothed=smoothed.mu,
-            sigma_smoothed=smoothed.sigma,
-            S=S,
-            R=R,
-            n_blobs=int(idx.size),
-            n_rain_blobs=int(np.count_nonzero(is_rain)),
-            histogram=hist,
+            candidates=candidates,
+            candidate_fraction=candidate_fraction,
+            hold=state in (State.WARMING_UP, State.SCENE_CHANGE) or moved,
             motion_px=motion_px,
             gain=self._gain,
             brightness=brightness,
-            candidate_fraction=candidate_fraction,
-            n_structural_blobs=int(np.count_nonzero(structural & (mom.area > 0))),
-            labels=blobs.labels,
-            blob_class=blob_class,
         )
 
-    # -- helpers -------------------------------------------------------------------------
     def _state(self, brightness: float) -> str:
         rob = self.params.robustness
         if self._frames_seen <= rob.warmup_frames + self._segmenter.delay:
@@ -308,15 +234,136 @@ class HosDetector:
             return gray, corrected_small
         return cv2.convertScaleAbs(gray, alpha=self._gain), corrected_small
 
+    # -- stage 2: blobs, HOS, mixture, decision, rain pixels, intensity ----------------------
+    def analyse(self, seg: Segmented) -> FrameResult:
+        """Steps 3-8 on the candidates of one frame (call in frame order)."""
+        p = self.params
+        rob = p.robustness
+        candidates = seg.candidates
+        h = candidates.shape[0]
+        if self._rate is None or self._rate.shape != candidates.shape:
+            self._rate = np.zeros(candidates.shape, np.float32)
+            self._global_rate = 0.0
+            self._frames_analysed = 0
+        self._frames_analysed += 1
+        area_scale = (h / p.segmentation.size_reference_height) ** 2
+        min_area = p.segmentation.min_area * area_scale
+        max_area = p.segmentation.max_area * area_scale
+
+        # 3. blobs, size rule, structure rule
+        blobs = find_blobs(candidates)
+        mom = blobs.moments
+        structural = structure_rule(
+            blobs,
+            self._rate,
+            global_rate=self._global_rate,
+            floor=rob.persistence_floor,
+            ratio=rob.persistence_ratio,
+        )
+        self._update_rate(candidates, seg.candidate_fraction)
+        sized = size_rule(mom.area, min_area=min_area, max_area=max_area)
+        sized[0] = False
+        accepted = sized & ~structural
+        idx = np.flatnonzero(accepted)
+
+        # 4-5. orientation, HOS, mixture
+        hp = p.histogram
+        dtheta = orientation_uncertainty(
+            mom.m20[idx], mom.m11[idx], mom.m02[idx], dm=hp.dm, lo=hp.dtheta_min, hi=hp.dtheta_max
+        )
+        theta = mom.theta[idx]
+        hist = hos_histogram(
+            theta,
+            dtheta,
+            mom.a[idx],
+            bins=hp.bins,
+            dtheta_min=hp.dtheta_min,
+            dtheta_max=hp.dtheta_max,
+        )
+        S = float(hist.sum())
+        if idx.size:
+            mp = p.mixture
+            weights = mom.a[idx]
+            n_eff = float(weights.sum()) ** 2 / float(np.sum(weights * weights))
+            fit = fit_mixture(
+                hist,
+                max_iter=mp.max_iter,
+                tol=mp.tol,
+                gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
+                sigma_min=mp.sigma_min,
+            )
+        else:
+            fit = MixtureFit(ok=False, reason="no blobs")
+
+        # 6. decision
+        dp = p.decision
+        if seg.hold:
+            smoothed = self._smoother.hold()
+        elif (
+            seg.state == State.OK
+            and fit.ok
+            and fit.gof_ok
+            and idx.size >= dp.min_blobs
+            and fit.sigma <= dp.sigma_max
+            and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
+        ):
+            smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma))
+        else:
+            smoothed = self._smoother.update(None)
+        rain = smoothed.rain and seg.state == State.OK
+
+        # 7. rain pixels
+        blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
+        blob_class[0] = BlobClass.NONE
+        blob_class[structural] = BlobClass.STRUCTURE
+        if smoothed.rain:
+            model = (smoothed.pi, smoothed.mu, smoothed.sigma)
+        elif fit.ok and fit.gof_ok:
+            model = (fit.pi, fit.mu, fit.sigma)
+        else:
+            model = None
+        if model is not None and 0.0 < model[0] < 1.0:
+            is_rain = classify_blobs(theta, pi=model[0], mu=model[1], sigma=model[2], s_b=dp.s_b)
+        else:
+            is_rain = np.zeros(idx.size, dtype=bool)
+        blob_class[idx] = np.where(is_rain, BlobClass.RAIN, BlobClass.NOISE)
+
+        # 8. intensity
+        merge = self._merge_correction(mom.area, accepted, structural, max_area)
+        R = S * smoothed.pi * merge
+
+        return FrameResult(
+            frame=seg.frame,
+            t_s=seg.t_s,
+            rain=rain,
+            state=seg.state,
+            fit=fit,
+            pi_smoothed=smoothed.pi,
+            mu_smoothed=smoothed.mu,
+            sigma_smoothed=smoothed.sigma,
+            S=S,
+            R=R,
+            n_blobs=int(idx.size),
+            n_rain_blobs=int(np.count_nonzero(is_rain)),
+            histogram=hist,
+            motion_px=seg.motion_px,
+            gain=seg.gain,
+            brightness=seg.brightness,
+            candidate_fraction=seg.candidate_fraction,
+            n_structural_blobs=int(np.count_nonzero(structural & (mom.area > 0))),
+            labels=blobs.labels,
+            blob_class=blob_class,
+        )
+
     def _update_rate(self, candidates: np.ndarray, fraction: float) -> None:
         """Per-pixel and global candidate rates: running means over ~persistence_frames."""
         tau = self.params.robustness.persistence_frames
-        alpha = max(1.0 / self._frames_seen, 1.0 / tau)
+        alpha = max(1.0 / self._frames_analysed, 1.0 / tau)
         cv2.accumulateWeighted(candidates, self._rate, alpha / 255.0)
         self._global_rate += alpha * (fraction - self._global_rate)
 
     def _merge_correction(
-        self, area: np.ndarray, accepted: np.ndarray, structural: np.ndarray
+        self, area: np.ndarray, accepted: np.ndarray, structural: np.ndarray, max_area: float
     ) -> float:
         """Factor >= 1 restoring the streaks lost to the size rule by overlap (beyond eq. 31).
 
@@ -330,9 +377,7 @@ class HosDetector:
         accepted_area = float(area[accepted].sum())
         if accepted_area <= 0.0:
             return 1.0
-        merged = (
-            (area > self._max_area) & (area <= self._max_area * rob.merge_max_factor) & ~structural
-        )
+        merged = (area > max_area) & (area <= max_area * rob.merge_max_factor) & ~structural
         return 1.0 + float(area[merged].sum()) / accepted_area
 
 

@@ -1,0 +1,1 @@
+"""The long-running service and the ``weatherd`` command line (``daemon.cli``)."""
