@@ -31,6 +31,7 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from daemon.detection import detect_frames  # noqa: E402
 from drivers.video import open_video  # noqa: E402
 from hos import DetectorParams, HosDetector  # noqa: E402
 from hos.render import Scene, SceneParams, StreakParams, write_video  # noqa: E402
@@ -73,14 +74,18 @@ def run_floor(clip: Path) -> int:
     return n
 
 
-def run_detector(clip: Path) -> int:
-    det = HosDetector()
+def run_detector(clip: Path, *, pipelined: bool = True) -> int:
     n = 0
     with open_video(clip) as reader:
-        for frame in reader:
-            json.dumps(det.process(frame.gray, frame.t_s).to_json())
+        stream = ((f.t_s, f.gray) for f in reader)
+        for result in detect_frames(HosDetector(), stream, pipelined=pipelined):
+            json.dumps(result.to_json())
             n += 1
     return n
+
+
+def run_detector_serial(clip: Path) -> int:
+    return run_detector(clip, pipelined=False)
 
 
 def run_cli(clip: Path) -> int:
@@ -107,6 +112,7 @@ def bench_size(width: int, height: int, frames: int, repeats: int, workdir: Path
         "decode": run_decode,
         "decode+mog2": run_floor,
         "detector": run_detector,
+        "detector, one thread": run_detector_serial,
         "weatherd detect": run_cli,
     }
     best: dict[str, float] = {name: float("inf") for name in variants}
@@ -120,12 +126,14 @@ def bench_size(width: int, height: int, frames: int, repeats: int, workdir: Path
         "frames": frames,
         **{f"{k}_fps": round(frames / v, 1) for k, v in best.items()},
         "ratio_detector_to_floor": round(best["detector"] / floor, 3),
+        "ratio_serial_detector_to_floor": round(best["detector, one thread"] / floor, 3),
         "ratio_cli_to_floor": round(best["weatherd detect"] / floor, 3),
     }
     print(
         f"{row['size']:>10}  decode {row['decode_fps']:7.1f} fps   decode+MOG2 "
         f"{row['decode+mog2_fps']:7.1f} fps   detector {row['detector_fps']:7.1f} fps "
-        f"(x{row['ratio_detector_to_floor']:.2f})   weatherd detect "
+        f"(x{row['ratio_detector_to_floor']:.2f}; one thread "
+        f"x{row['ratio_serial_detector_to_floor']:.2f})   weatherd detect "
         f"{row['weatherd detect_fps']:7.1f} fps (x{row['ratio_cli_to_floor']:.2f}, "
         "start-up included)",
         flush=True,

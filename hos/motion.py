@@ -59,6 +59,12 @@ def global_translation(
     it = cur - prev
     b = 4  # ignore the border, where the blur and the Sobel see the padding
     ix, iy, it = ix[b:-b, b:-b].ravel(), iy[b:-b, b:-b].ravel(), it[b:-b, b:-b].ravel()
+    # A translation is told by the edges: keep the pixels whose gradient is above the mean
+    # (about a quarter of them), four times less work for the same estimate.
+    g2 = ix * ix + iy * iy
+    strong = np.flatnonzero(g2 > g2.mean())
+    if strong.size >= 500:
+        ix, iy, it = ix[strong], iy[strong], it[strong]
     weights = np.ones_like(it)
     d = np.zeros(2)
     a = np.eye(2)
