@@ -315,7 +315,7 @@ class HosDetector:
         # 7. rain pixels
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
         blob_class[0] = BlobClass.NONE
-        blob_class[structural] = BlobClass.STRUCTURE
+        blob_class[sized & structural] = BlobClass.STRUCTURE  # streak-sized, but recurs in place
         if smoothed.rain:
             model = (smoothed.pi, smoothed.mu, smoothed.sigma)
         elif fit.ok and fit.gof_ok:
@@ -350,7 +350,7 @@ class HosDetector:
             gain=seg.gain,
             brightness=seg.brightness,
             candidate_fraction=seg.candidate_fraction,
-            n_structural_blobs=int(np.count_nonzero(structural & (mom.area > 0))),
+            n_structural_blobs=int(np.count_nonzero(sized & structural)),
             labels=blobs.labels,
             blob_class=blob_class,
         )
