@@ -104,6 +104,7 @@ def fit_mixture(
     tol: float = 1e-4,
     gof_dc: float = 0.06,
     sigma_min: float = math.radians(1.0),
+    start: tuple[float, float, float] | None = None,
 ) -> MixtureFit:
     """Fit eq. 23 to a HOS by EM (eqs. 24-25) and test the fit (eq. 26).
 
@@ -114,6 +115,9 @@ def fit_mixture(
     Parameters
     ----------
     histogram : (bins,) non-negative, the HOS over [0, pi)
+    start : optional (pi, mu, sigma), e.g. the previous frame's fit. EM starts from it instead of
+        the paper's median rule when it explains the histogram better (higher likelihood): in
+        steady rain it is already near the optimum and EM needs a few steps, not twenty.
 
     Returns
     -------
@@ -128,11 +132,16 @@ def fit_mixture(
         return MixtureFit(ok=False, reason="empty histogram")
     y = y / total
     theta = bin_centers(y.size)
-    start = _initial_guess(theta, y)
-    if start is None:
+    initial = _initial_guess(theta, y)
+    if initial is None:
         return MixtureFit(ok=False, reason="flat histogram")
-    x0 = _clamp(np.array(start), sigma_min)
+    x0 = _clamp(np.array(initial), sigma_min)
     steps = 0
+    if start is not None:
+        alternative = _clamp(np.array(start, dtype=np.float64), sigma_min)
+        if _em_step(theta, y, alternative, sigma_min)[1] > _em_step(theta, y, x0, sigma_min)[1]:
+            x0 = alternative
+        steps += 2
     while steps < max_iter:
         x1, ll0 = _em_step(theta, y, x0, sigma_min)
         x2, ll1 = _em_step(theta, y, x1, sigma_min)

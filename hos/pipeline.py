@@ -104,6 +104,7 @@ class HosDetector:
         self._rate: np.ndarray | None = None
         self._global_rate = 0.0
         self._frames_analysed = 0
+        self._last_fit: tuple[float, float, float] | None = None
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -291,7 +292,9 @@ class HosDetector:
                 tol=mp.tol,
                 gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
                 sigma_min=mp.sigma_min,
+                start=self._last_fit,
             )
+            self._last_fit = (fit.pi, fit.mu, fit.sigma) if fit.ok and fit.gof_ok else None
         else:
             fit = MixtureFit(ok=False, reason="no blobs")
 

@@ -89,3 +89,17 @@ def test_axial_mean_is_rotation_equivariant(mu, spread):
     theta = np.mod(mu + rng.normal(0, spread, 200), math.pi)
     m = axial_mean(theta, np.ones(200))
     assert abs(float(wrap_diff(m, mu))) < 4 * spread / math.sqrt(200) + 1e-6
+
+
+def test_a_good_start_gives_the_same_fit_in_fewer_steps():
+    rng = np.random.default_rng(7)
+    h = _mixture_histogram(rng, 1500, 80, 9, 0.3)
+    cold = fit_mixture(h)
+    warm = fit_mixture(h, start=(cold.pi, cold.mu, cold.sigma))
+    assert warm.iterations < cold.iterations
+    assert warm.pi == pytest.approx(cold.pi, abs=0.01)
+    assert math.degrees(warm.mu) == pytest.approx(math.degrees(cold.mu), abs=0.2)
+    # A bad start is ignored: the paper's initialisation explains the histogram better.
+    bad = fit_mixture(h, start=(0.9, math.radians(10), math.radians(3)))
+    assert bad.pi == pytest.approx(cold.pi, abs=0.01)
+    assert math.degrees(bad.mu) == pytest.approx(math.degrees(cold.mu), abs=0.2)
