@@ -22,6 +22,11 @@ __all__ = [
 ]
 
 
+def _check(ok: bool, key: str, what: str) -> None:
+    if not ok:
+        raise ValueError(f"{key}: {what}")
+
+
 @dataclass(frozen=True)
 class SegmentationParams:
     """Candidate streak pixels and blobs (paper section 2)."""
@@ -49,6 +54,17 @@ class SegmentationParams:
     #: Learning rate of the running background image used by the photometric rule.
     background_rate: float = 0.02
 
+    def __post_init__(self) -> None:
+        _check(self.method in ("mog", "framediff"), "method", 'must be "mog" or "framediff"')
+        _check(self.mog_history >= 1, "mog_history", "must be >= 1")
+        _check(1 <= self.mog_mixtures <= 8, "mog_mixtures", "must be in 1..8")
+        _check(self.mog_d > 0, "mog_d", "must be > 0")
+        _check(0 < self.mog_background_ratio <= 1, "mog_background_ratio", "must be in (0, 1]")
+        _check(0 <= self.photometric_c < 255, "photometric_c", "must be in [0, 255)")
+        _check(1 <= self.min_area <= self.max_area, "min_area", "must be >= 1 and <= max_area")
+        _check(self.size_reference_height >= 1, "size_reference_height", "must be >= 1")
+        _check(0 < self.background_rate <= 1, "background_rate", "must be in (0, 1]")
+
 
 @dataclass(frozen=True)
 class HistogramParams:
@@ -65,6 +81,12 @@ class HistogramParams:
     #: dG of eq. 11 for the gradient (HOG) variant, in grey levels.
     dg: float = 8.0
 
+    def __post_init__(self) -> None:
+        _check(8 <= self.bins <= 3600, "bins", "must be in 8..3600")
+        _check(self.dm > 0, "dm", "must be > 0")
+        _check(0 < self.dtheta_min < self.dtheta_max, "dtheta_min", "must be > 0 and < dtheta_max")
+        _check(self.dg > 0, "dg", "must be > 0")
+
 
 @dataclass(frozen=True)
 class MixtureParams:
@@ -80,6 +102,14 @@ class MixtureParams:
     #: ``max(gof_dc, gof_ks_c / sqrt(n_eff))``, n_eff the effective number of weighted votes
     #: (1.36: the 5 % critical value). Set ``gof_ks_c = 0`` for the paper's fixed threshold.
     gof_ks_c: float = 1.36
+
+    def __post_init__(self) -> None:
+        _check(self.max_iter >= 2, "max_iter", "must be >= 2")
+        _check(self.tol > 0, "tol", "must be > 0")
+        _check(0 < self.gof_dc <= 1, "gof_dc", "must be in (0, 1]")
+        _check(self.sigma_min > 0, "sigma_min", "must be > 0")
+        _check(self.gof_ks_c >= 0, "gof_ks_c", "must be >= 0")
+
     #: Floor on sigma so that EM cannot collapse onto one bin.
     sigma_min: float = math.radians(1.0)
 
@@ -111,6 +141,17 @@ class DecisionParams:
     max_tilt: float = math.radians(60.0)
     #: S_b of section 6: a blob is rain when P(rain|theta)/P(noise|theta) > S_b (paper: 0.6).
     s_b: float = 0.6
+
+    def __post_init__(self) -> None:
+        _check(self.process_var > 0, "process_var", "must be > 0")
+        _check(self.measurement_var > 0, "measurement_var", "must be > 0")
+        _check(0 < self.pi_rain < 1, "pi_rain", "must be in (0, 1)")
+        _check(0 <= self.hysteresis < self.pi_rain, "hysteresis", "must be in [0, pi_rain)")
+        _check(self.miss_measurement_var > 0, "miss_measurement_var", "must be > 0")
+        _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
+        _check(self.sigma_max > 0, "sigma_max", "must be > 0")
+        _check(0 < self.max_tilt <= math.pi / 2, "max_tilt", "must be in (0, 90] degrees")
+        _check(self.s_b > 0, "s_b", "must be > 0")
 
 
 @dataclass(frozen=True)
@@ -151,6 +192,20 @@ class RobustnessParams:
     merge_correction: bool = True
     merge_max_factor: float = 20.0
 
+    def __post_init__(self) -> None:
+        _check(self.warmup_frames >= 0, "warmup_frames", "must be >= 0")
+        _check(self.persistence_frames >= 1, "persistence_frames", "must be >= 1")
+        _check(0 < self.persistence_floor <= 1, "persistence_floor", "must be in (0, 1]")
+        _check(self.persistence_ratio > 0, "persistence_ratio", "must be > 0")
+        _check(self.reference_frames >= 1, "reference_frames", "must be >= 1")
+        _check(self.motion_frame_px > 0, "motion_frame_px", "must be > 0")
+        _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
+        _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
+        _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")
+        _check(0 <= self.dark_level < 255, "dark_level", "must be in [0, 255)")
+        _check(0 < self.scene_change_fraction <= 1, "scene_change_fraction", "in (0, 1]")
+        _check(self.merge_max_factor >= 1, "merge_max_factor", "must be >= 1")
+
 
 @dataclass(frozen=True)
 class DetectorParams:
@@ -181,5 +236,8 @@ class DetectorParams:
                 if name not in known:
                     raise ValueError(f"detector.{group}.{key}: unknown parameter")
                 kwargs[name] = math.radians(value) if key.endswith("_deg") else value
-            built[group] = replace(default, **kwargs)
+            try:
+                built[group] = replace(default, **kwargs)
+            except ValueError as err:
+                raise ValueError(f"detector.{group}.{err}") from None
         return cls(**built)

@@ -183,9 +183,7 @@ def test_image_folder_in_name_order_with_bad_images_skipped(tmp_path: Path) -> N
     assert [f.index for f in frames] == [0, 1, 2, 3, 4]
     # t_s is the position in the folder: the unreadable image leaves a gap
     assert [f.t_s for f in frames] == pytest.approx([0.0, 0.1, 0.2, 0.4, 0.5])
-    assert [int(np.median(f.gray)) for f in frames] == pytest.approx(
-        [20, 24, 28, 32, 36], abs=2
-    )
+    assert [int(np.median(f.gray)) for f in frames] == pytest.approx([20, 24, 28, 32, 36], abs=2)
 
 
 def test_image_folder_default_rate_and_odd_sizes(tmp_path: Path) -> None:

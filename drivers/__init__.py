@@ -1,0 +1,17 @@
+"""The outside world behind small interfaces: video files and image folders (PyAV), errors.
+
+Cameras (V4L2, RTSP), the demo source and serial instruments join here with the daemon.
+"""
+
+from .errors import ConfigError, InputError, SourceError, WeatherdError
+from .video import Frame, VideoReader, open_video
+
+__all__ = [
+    "ConfigError",
+    "Frame",
+    "InputError",
+    "SourceError",
+    "VideoReader",
+    "WeatherdError",
+    "open_video",
+]
