@@ -126,6 +126,11 @@ class DecisionParams:
     #: Beyond the paper: the decision switches off at ``pi_rain - hysteresis`` so that the
     #: verdict does not flicker around the threshold.
     hysteresis: float = 0.05
+    #: Beyond the paper: a new verdict is reported once the threshold test has agreed with it
+    #: for this many consecutive frames: a few to start (a one-frame blip is not rain), more to
+    #: stop (rain tapering off must not flicker the state on and off).
+    dwell_on_frames: int = 3
+    dwell_off_frames: int = 8
     #: Beyond the paper: a frame without a valid fit is evidence of *no* rain. It updates Pi
     #: with a measurement of 0 and this (larger) variance, so that the state decays instead of
     #: freezing at its last value (the weakness noted in section 5).
@@ -147,6 +152,8 @@ class DecisionParams:
         _check(self.measurement_var > 0, "measurement_var", "must be > 0")
         _check(0 < self.pi_rain < 1, "pi_rain", "must be in (0, 1)")
         _check(0 <= self.hysteresis < self.pi_rain, "hysteresis", "must be in [0, pi_rain)")
+        _check(self.dwell_on_frames >= 1, "dwell_on_frames", "must be >= 1")
+        _check(self.dwell_off_frames >= 1, "dwell_off_frames", "must be >= 1")
         _check(self.miss_measurement_var > 0, "miss_measurement_var", "must be > 0")
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
         _check(self.sigma_max > 0, "sigma_max", "must be > 0")

@@ -59,6 +59,7 @@ class ParameterSmoother:
         kf.R = np.eye(3) * p.measurement_var
         self._kf = kf
         self._rain = False
+        self._pending = 0  # consecutive frames whose threshold test disagrees with the verdict
 
     @property
     def state(self) -> SmoothedState:
@@ -85,10 +86,15 @@ class ParameterSmoother:
         return self._decide()
 
     def _decide(self) -> SmoothedState:
+        """Threshold with hysteresis; a new verdict must hold for ``dwell_on/off_frames``."""
         p = self.params
         pi = self._kf.x[0, 0]
-        if self._rain:
-            self._rain = pi >= p.pi_rain - p.hysteresis
+        wants = pi >= p.pi_rain - p.hysteresis if self._rain else pi > p.pi_rain
+        if wants == self._rain:
+            self._pending = 0
         else:
-            self._rain = pi > p.pi_rain
+            self._pending += 1
+            dwell = p.dwell_off_frames if self._rain else p.dwell_on_frames
+            if self._pending >= dwell:
+                self._rain, self._pending = wants, 0
         return self.state

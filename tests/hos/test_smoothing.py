@@ -48,3 +48,25 @@ def test_hysteresis_holds_the_verdict_near_the_threshold():
     for _ in range(40):
         st = s.update((0.1, 1.5, 0.1))
     assert not st.rain
+
+
+def test_tapering_rain_does_not_flicker_the_verdict():
+    p = DecisionParams()
+    s = ParameterSmoother(p)
+    for _ in range(40):
+        s.update((0.8, 1.5, 0.1))
+    verdicts = []
+    for i in range(60):  # rain fading: fits come and go around the threshold
+        st = s.update((0.5, 1.5, 0.1)) if i % 3 == 0 else s.update(None)
+        verdicts.append(st.rain)
+    changes = sum(a != b for a, b in zip(verdicts, verdicts[1:], strict=False))
+    assert changes <= 1
+
+
+def test_a_one_frame_blip_is_not_rain():
+    s = ParameterSmoother()
+    for _ in range(20):
+        s.update(None)
+    st = s.update((1.0, 1.5, 0.1))
+    st = s.update(None)
+    assert not st.rain
