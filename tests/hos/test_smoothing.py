@@ -1,3 +1,4 @@
+import itertools
 import math
 
 import pytest
@@ -59,7 +60,7 @@ def test_tapering_rain_does_not_flicker_the_verdict():
     for i in range(60):  # rain fading: fits come and go around the threshold
         st = s.update((0.5, 1.5, 0.1)) if i % 3 == 0 else s.update(None)
         verdicts.append(st.rain)
-    changes = sum(a != b for a, b in zip(verdicts, verdicts[1:], strict=False))
+    changes = sum(a != b for a, b in itertools.pairwise(verdicts))
     assert changes <= 1
 
 
