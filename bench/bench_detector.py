@@ -34,6 +34,7 @@ sys.path.insert(0, str(REPO))
 from daemon.detection import detect_frames  # noqa: E402
 from drivers.video import open_video  # noqa: E402
 from hos import DetectorParams, HosDetector  # noqa: E402
+from hos.background import create_mog2  # noqa: E402
 from hos.render import Scene, SceneParams, StreakParams, write_video  # noqa: E402
 
 RESULTS = REPO / "bench" / "results"
@@ -60,12 +61,7 @@ def run_decode(clip: Path) -> int:
 
 
 def run_floor(clip: Path) -> int:
-    seg = DetectorParams().segmentation
-    mog = cv2.createBackgroundSubtractorMOG2(
-        history=seg.mog_history, varThreshold=seg.mog_d**2, detectShadows=False
-    )
-    mog.setNMixtures(seg.mog_mixtures)
-    mog.setBackgroundRatio(seg.mog_background_ratio)
+    mog = create_mog2(DetectorParams().segmentation)  # the detector's own MoG, nothing else
     n = 0
     with open_video(clip) as reader:
         for frame in reader:

@@ -18,7 +18,13 @@ import numpy as np
 
 from .params import SegmentationParams
 
-__all__ = ["FrameDiffSegmenter", "MogSegmenter", "frame_difference_rule", "photometric_rule"]
+__all__ = [
+    "FrameDiffSegmenter",
+    "MogSegmenter",
+    "create_mog2",
+    "frame_difference_rule",
+    "photometric_rule",
+]
 
 
 def photometric_rule(
@@ -50,18 +56,22 @@ def frame_difference_rule(
     return cv2.bitwise_and(a, b)
 
 
+def create_mog2(params: SegmentationParams) -> cv2.BackgroundSubtractorMOG2:
+    """OpenCV's MOG2 set from the paper's parameters: K, gamma_1 = 1/history, T and D."""
+    mog = cv2.createBackgroundSubtractorMOG2(
+        history=params.mog_history, varThreshold=params.mog_d**2, detectShadows=False
+    )
+    mog.setNMixtures(params.mog_mixtures)
+    mog.setBackgroundRatio(params.mog_background_ratio)
+    return mog
+
+
 class MogSegmenter:
     """MoG foreground + photometric rule; ``apply(gray) -> candidate mask``."""
 
     def __init__(self, params: SegmentationParams) -> None:
         self.params = params
-        self._mog = cv2.createBackgroundSubtractorMOG2(
-            history=params.mog_history,
-            varThreshold=params.mog_d**2,
-            detectShadows=False,
-        )
-        self._mog.setNMixtures(params.mog_mixtures)
-        self._mog.setBackgroundRatio(params.mog_background_ratio)
+        self._mog = create_mog2(params)
         self._background: np.ndarray | None = None  # float32 running background
         self._background_u8: np.ndarray | None = None
         self.delay = 0
@@ -85,11 +95,6 @@ class MogSegmenter:
         self._background_u8 = cv2.convertScaleAbs(self._background)
         return candidates
 
-    @property
-    def background(self) -> np.ndarray | None:
-        """(H, W) uint8 running background image, or None before the first frame."""
-        return self._background_u8
-
 
 class FrameDiffSegmenter:
     """Eq. 32 with one frame of delay: ``apply(I_{n+1})`` returns the mask of frame n."""
@@ -109,7 +114,3 @@ class FrameDiffSegmenter:
             return np.zeros_like(gray)
         prev, cur, nxt = self._frames
         return frame_difference_rule(prev, cur, nxt, c=self.params.photometric_c)
-
-    @property
-    def background(self) -> np.ndarray | None:
-        return self._frames[0] if self._frames else None

@@ -24,7 +24,7 @@ import math
 
 import numpy as np
 
-from .angles import bin_centers, wrap_diff
+from .angles import bin_centers, wrapped_normal_pdf
 
 __all__ = ["hog_histogram", "hos_histogram", "kernel_variance"]
 
@@ -85,16 +85,10 @@ def _hos_exact(theta: np.ndarray, dtheta: np.ndarray, weight: np.ndarray, bins: 
     out = np.zeros(bins)
     for start in range(0, theta.size, 2048):  # bounded memory; loop over chunks, not blobs
         sl = slice(start, start + 2048)
-        g = _wrapped_gauss(centers[None, :], theta[sl, None], dtheta[sl, None])
+        g = wrapped_normal_pdf(centers[None, :], theta[sl, None], dtheta[sl, None])
         g *= (weight[sl] / g.sum(axis=1))[:, None]
         out += g.sum(axis=0)
     return out
-
-
-def _wrapped_gauss(x: np.ndarray, mu: np.ndarray, sigma: np.ndarray) -> np.ndarray:
-    """Unnormalised Gaussian of pi-periodic x, summed over the nearest three periods."""
-    d = wrap_diff(x, mu)
-    return sum(np.exp(-0.5 * ((d + k * np.pi) / sigma) ** 2) for k in (-1, 0, 1))
 
 
 @functools.lru_cache(maxsize=16)
@@ -103,7 +97,7 @@ def _kernel_bank(bins: int, lo: float, hi: float) -> tuple[np.ndarray, np.ndarra
     n = bins * _SUBBINS
     widths = np.geomspace(lo, hi, _LEVELS)
     x = np.arange(n) * (np.pi / n)  # kernel centred on position 0, wrapped
-    k = _wrapped_gauss(x[None, :], np.zeros((_LEVELS, 1)), widths[:, None])
+    k = wrapped_normal_pdf(x[None, :], np.zeros((_LEVELS, 1)), widths[:, None])
     k /= k.sum(axis=1, keepdims=True)
     return widths, np.fft.rfft(k, axis=1)
 

@@ -14,6 +14,7 @@ import math
 import cv2
 import numpy as np
 
+from .angles import wrapped_normal_pdf
 from .params import DetectorParams
 from .result import BlobClass, FrameResult
 
@@ -89,12 +90,12 @@ def mixture_curves(result: FrameResult, theta: np.ndarray) -> dict[str, np.ndarr
     curves: dict[str, np.ndarray | None] = dict.fromkeys(("gaussian", "uniform", "total"))
     fit = result.fit
     if fit.ok and _finite(fit.pi, fit.mu, fit.sigma) and fit.sigma > 0:
-        gaussian = fit.pi * _wrapped_normal(theta, fit.mu, fit.sigma) * scale
+        gaussian = fit.pi * wrapped_normal_pdf(theta, fit.mu, fit.sigma) * scale
         uniform = np.full_like(gaussian, (1.0 - fit.pi) / math.pi * scale)
         curves.update(gaussian=gaussian, uniform=uniform, total=gaussian + uniform)
     pi_s, mu_s, sigma_s = result.pi_smoothed, result.mu_smoothed, result.sigma_smoothed
     curves["smoothed"] = (
-        pi_s * _wrapped_normal(theta, mu_s, sigma_s) * scale
+        pi_s * wrapped_normal_pdf(theta, mu_s, sigma_s) * scale
         if _finite(pi_s, mu_s, sigma_s) and sigma_s > 0
         else None
     )
@@ -234,11 +235,6 @@ def _draw_text(out: np.ndarray, tokens: list[str], *, rain: bool) -> None:
 
 
 # -- maths -------------------------------------------------------------------------------
-def _wrapped_normal(theta: np.ndarray, mu: float, sigma: float) -> np.ndarray:
-    """Density of the pi-periodic (wrapped) normal N(mu, sigma) over [0, pi), 1/rad."""
-    d = np.mod(np.asarray(theta, dtype=np.float64) - mu + math.pi / 2, math.pi) - math.pi / 2
-    k = np.arange(-2, 3)[:, None] * math.pi
-    return np.exp(-0.5 * ((d + k) / sigma) ** 2).sum(axis=0) / (sigma * math.sqrt(2 * math.pi))
 
 
 def _finite(*values: float) -> bool:

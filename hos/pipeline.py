@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .angles import wrap_diff
+from .angles import wrap_diff, wrapped_normal_pdf
 from .background import FrameDiffSegmenter, MogSegmenter
 from .blobs import find_blobs, size_rule, structure_rule
 from .histogram import hos_histogram
@@ -52,10 +52,7 @@ def classify_blobs(
     P(theta|noise) = U / (Pi N + (1-Pi) U) (eq. 29); by Bayes' rule the ratio of the posteriors
     is ``P(rain|theta) / P(noise|theta) = Pi N(theta) / ((1 - Pi) U)``, compared with S_b.
     """
-    d = np.mod(np.asarray(theta) - mu + np.pi / 2, np.pi) - np.pi / 2
-    gauss = sum(np.exp(-0.5 * ((d + k * np.pi) / sigma) ** 2) for k in (-1, 0, 1)) / (
-        sigma * math.sqrt(2.0 * math.pi)
-    )
+    gauss = wrapped_normal_pdf(theta, mu, sigma)
     uniform = 1.0 / np.pi
     with np.errstate(divide="ignore"):
         ratio = pi * gauss / ((1.0 - pi) * uniform)
