@@ -1,0 +1,1097 @@
+"""MCAP recording that survives power cuts, full disks and months of uptime; and its repair.
+
+The daemon records every message as JSON (``message_encoding="json"``) with a JSON Schema
+(``encoding="jsonschema"``) so that Foxglove opens the files as they are.
+
+Files
+    ``<site>_<UTC start>.mcap`` in the recording directory (``demo_20261122T123456Z.mcap``; a
+    ``-1``, ``-2`` … suffix when two files start within the same second). While a file is being
+    written it is named ``….mcap.part``; it is renamed to ``….mcap`` once it is finished, so a
+    reader globbing ``*.mcap`` only ever sees finished files. Every file stands alone: schemas
+    and channels are registered again in each new file.
+Rotation
+    by age (``rotate_s``, on the injected clock) and by size (``rotate_bytes``; a file may
+    overshoot by at most one chunk).
+Disk budget
+    after each rotation and every ``budget_interval_s``, the oldest finished files of this site
+    are deleted while the recordings of the directory (all ``*.mcap`` and ``*.mcap.part``)
+    exceed ``budget_bytes`` or the filesystem has less than ``min_free_bytes`` free. The file
+    being written is never deleted.
+Full disk
+    an ``OSError`` while writing never leaves :meth:`Recorder.write`: the current file is
+    abandoned as a ``.part`` (repaired at the next start-up by :func:`recover_directory`, or
+    deleted first by the budget), messages are dropped and counted, a new file is tried every
+    ``retry_interval_s`` after a budget cleanup, and one log line marks each end of the episode.
+Crash safety
+    ``mcap.writer.Writer`` keeps the open chunk in memory. Every ``flush_interval_s`` the chunk is
+    finished and the file object flushed to the OS (``Writer.flush``, public since mcap 1.6,
+    pinned by a test), and every ``fsync_interval_s`` the file is ``fsync``-ed, so a ``kill -9``
+    loses at most about ``flush_interval_s`` of messages and a power cut ``fsync_interval_s``.
+Repair
+    :func:`recover` copies every complete schema, channel and message of an unfinished or
+    truncated file into a properly finished one, stopping at the first incomplete or corrupt
+    record; :func:`recover_directory` does so for each ``*.mcap.part`` at start-up.
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import itertools
+import json
+import logging
+import math
+import os
+import re
+import shutil
+import struct
+import threading
+import time
+import traceback
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager, suppress
+from dataclasses import dataclass, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import Any, BinaryIO
+
+import mcap.writer
+import numpy as np
+from mcap.data_stream import ReadDataStream
+from mcap.decoder import DecoderFactory
+from mcap.exceptions import McapError
+from mcap.opcode import Opcode
+from mcap.records import Channel, Chunk, Footer, Header, McapRecord, Message, Schema
+from mcap.stream_reader import breakup_chunk
+from mcap.writer import CompressionType, Writer
+
+from drivers.errors import InputError
+
+__all__ = [
+    "FOXGLOVE_COMPRESSED_IMAGE_SCHEMA",
+    "FOXGLOVE_LOG_SCHEMA",
+    "JsonDecoderFactory",
+    "McapFile",
+    "Recorder",
+    "RecorderLogHandler",
+    "RecoverResult",
+    "compressed_image",
+    "encode_json",
+    "log_message",
+    "recover",
+    "recover_directory",
+]
+
+log = logging.getLogger(__name__)
+
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+LIBRARY = "hos-weatherd"
+_SITE_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
+_NAME_RE = re.compile(
+    r"(?P<site>.+)_(?P<start>\d{8}T\d{6}Z)(?:-(?P<seq>\d+))?\.mcap(?P<part>\.part)?"
+)
+# A chunk claiming more than this when decompressed is taken for corruption (ours are ~chunk_size).
+_MAX_CHUNK_BYTES = 256 * 2**20
+# What a corrupt record can raise while it is parsed (lz4 raises RuntimeError): stop there.
+_CORRUPT: tuple[type[Exception], ...] = (
+    McapError,
+    struct.error,
+    ValueError,
+    EOFError,
+    RuntimeError,
+    OverflowError,
+    *((mcap.writer.zstandard.ZstdError,) if mcap.writer.zstandard is not None else ()),
+)
+
+_TIME_SCHEMA = {
+    "type": "object",
+    "title": "time",
+    "properties": {
+        "sec": {"type": "integer", "minimum": 0},
+        "nsec": {"type": "integer", "minimum": 0, "maximum": 999_999_999},
+    },
+}
+
+FOXGLOVE_COMPRESSED_IMAGE_SCHEMA: dict = {
+    "title": "foxglove.CompressedImage",
+    "description": "A compressed image",
+    "type": "object",
+    "properties": {
+        "timestamp": {**_TIME_SCHEMA, "description": "Timestamp of image"},
+        "frame_id": {"type": "string", "description": "Frame of reference for the image"},
+        "data": {
+            "type": "string",
+            "contentEncoding": "base64",
+            "description": "Compressed image data",
+        },
+        "format": {"type": "string", "description": "Image format: jpeg, png, webp or avif"},
+    },
+}
+
+FOXGLOVE_LOG_SCHEMA: dict = {
+    "title": "foxglove.Log",
+    "description": "A log message",
+    "type": "object",
+    "properties": {
+        "timestamp": {**_TIME_SCHEMA, "description": "Timestamp of log message"},
+        "level": {
+            "title": "foxglove.LogLevel",
+            "description": "Log level",
+            "oneOf": [
+                {"title": title, "const": value}
+                for value, title in enumerate(
+                    ["UNKNOWN", "DEBUG", "INFO", "WARNING", "ERROR", "FATAL"]
+                )
+            ],
+        },
+        "message": {"type": "string", "description": "Log message"},
+        "name": {"type": "string", "description": "Process or node name"},
+        "file": {"type": "string", "description": "Filename"},
+        "line": {"type": "integer", "minimum": 0, "description": "Line number in the file"},
+    },
+}
+
+
+# --------------------------------------------------------------------------- message helpers
+
+
+def foxglove_time(t_ns: int) -> dict:
+    """``{"sec": int, "nsec": int}`` of a time in integer nanoseconds since the epoch."""
+    sec, nsec = divmod(int(t_ns), 1_000_000_000)
+    return {"sec": sec, "nsec": nsec}
+
+
+def compressed_image(jpeg: bytes, *, t_ns: int, frame_id: str, image_format: str = "jpeg") -> dict:
+    """A ``foxglove.CompressedImage`` message (JSON encoding: ``data`` is base64).
+
+    Parameters
+    ----------
+    jpeg : bytes
+        The encoded image.
+    t_ns : int
+        Capture time, nanoseconds since the Unix epoch.
+    frame_id : str
+        The camera's name.
+    image_format : str
+        ``"jpeg"`` unless the bytes are something else Foxglove decodes (``"png"``, ``"webp"``).
+    """
+    return {
+        "timestamp": foxglove_time(t_ns),
+        "frame_id": frame_id,
+        "data": base64.b64encode(jpeg).decode("ascii"),
+        "format": image_format,
+    }
+
+
+def foxglove_log_level(levelno: int) -> int:
+    """Python logging level → ``foxglove.LogLevel`` (1 DEBUG … 5 FATAL)."""
+    for foxglove_level, below in enumerate(
+        (logging.INFO, logging.WARNING, logging.ERROR, logging.CRITICAL), start=1
+    ):
+        if levelno < below:
+            return foxglove_level
+    return 5
+
+
+def log_message(record: logging.LogRecord) -> dict:
+    """A ``foxglove.Log`` message from a log record (with its traceback, if any)."""
+    try:
+        text = record.getMessage()
+    except (TypeError, ValueError):  # bad %-arguments: keep what we can
+        text = f"{record.msg} {record.args}"
+    if record.exc_info:
+        text += "\n" + "".join(traceback.format_exception(*record.exc_info)).rstrip()
+    return {
+        "timestamp": foxglove_time(getattr(record, "created_ns", None) or record.created * 1e9),
+        "level": foxglove_log_level(record.levelno),
+        "message": text,
+        "name": record.name,
+        "file": record.pathname,
+        "line": max(int(record.lineno or 0), 0),
+    }
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.ndarray | np.generic):
+        return value.tolist()
+    if isinstance(value, bytes | bytearray | memoryview):
+        return base64.b64encode(value).decode("ascii")
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
+
+
+def _finite(value: Any) -> Any:
+    """``value`` with every NaN or infinity replaced by ``None`` (JSON has neither)."""
+    if isinstance(value, float | np.floating):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.ndarray):
+        return _finite(value.tolist())
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
+
+
+_ENCODER = json.JSONEncoder(
+    separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_json_default
+)
+
+
+def encode_json(message: Any) -> bytes:
+    """Compact UTF-8 JSON of ``message``; numpy values become numbers, NaN/inf become ``null``.
+
+    Raises ``TypeError`` for a value JSON cannot represent (a programming error).
+    """
+    try:
+        return _ENCODER.encode(message).encode()
+    except ValueError:  # a non-finite float somewhere: rare, so only then walk the message
+        return _ENCODER.encode(_finite(message)).encode()
+
+
+class JsonDecoderFactory(DecoderFactory):
+    """Decodes ``json`` messages: ``make_reader(f, decoder_factories=[JsonDecoderFactory()])``."""
+
+    def decoder_for(self, message_encoding: str, schema: Schema | None) -> Callable | None:
+        """``json.loads`` for the ``json`` message encoding, else ``None``."""
+        return json.loads if message_encoding == "json" else None
+
+
+# --------------------------------------------------------------------------- files
+
+
+def _compression(name: str) -> CompressionType:
+    """The mcap compression for ``name``, falling back to lz4 then none when not installed."""
+    wanted = name.lower() or "none"
+    if wanted not in ("zstd", "lz4", "none"):
+        raise ValueError(f"compression: expected zstd, lz4 or none, got {name!r}")
+    available = {
+        "zstd": mcap.writer.zstandard is not None,
+        "lz4": mcap.writer.lz4 is not None,
+        "none": True,
+    }
+    chosen = next(c for c in (wanted, "lz4", "none") if available[c])
+    if chosen != wanted:
+        log.warning("compression %s is not installed; recording with %s", wanted, chosen)
+    return {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4}.get(
+        chosen, CompressionType.NONE
+    )
+
+
+def _open_stream(path: Path) -> BinaryIO:
+    """Create ``path`` for writing (a seam for the tests' full-disk simulation)."""
+    return open(path, "xb")  # closed by the Recorder
+
+
+def _fsync_directory(directory: Path) -> None:
+    """Make a rename in ``directory`` durable (best effort)."""
+    with suppress(OSError):
+        fd = os.open(directory, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+
+
+def _free_bytes(directory: Path) -> int:
+    """Bytes free to unprivileged users on the filesystem of ``directory``."""
+    return shutil.disk_usage(directory).free
+
+
+@dataclass(frozen=True)
+class _Recording:
+    path: Path
+    size: int
+    site: str | None
+    order: tuple[str, int]  # (UTC start, sequence): oldest first
+    finished: bool
+
+
+def _recordings(directory: Path) -> list[_Recording]:
+    """Every ``*.mcap`` and ``*.mcap.part`` in ``directory`` (names not ours have no site)."""
+    found = []
+    with suppress(FileNotFoundError), os.scandir(directory) as entries:
+        for entry in entries:
+            if not entry.name.endswith((".mcap", ".mcap.part")):
+                continue
+            try:
+                size = entry.stat(follow_symlinks=False).st_size
+            except OSError:
+                continue
+            m = _NAME_RE.fullmatch(entry.name)
+            found.append(
+                _Recording(
+                    path=Path(entry.path),
+                    size=size,
+                    site=m["site"] if m else None,
+                    order=(m["start"], int(m["seq"] or 0)) if m else ("", 0),
+                    finished=entry.name.endswith(".mcap"),
+                )
+            )
+    return found
+
+
+def _channel_id(
+    writer: Writer,
+    schema_ids: dict[tuple[str, bytes], int],
+    channel_ids: dict[tuple[str, str], int],
+    topic: str,
+    schema_name: str,
+    schema: dict,
+) -> int:
+    """The channel of ``(topic, schema_name)`` in this file, registered (with its JSON Schema)
+    on first use; the ``schema`` dict is only serialised then."""
+    key = (topic, schema_name)
+    channel_id = channel_ids.get(key)
+    if channel_id is None:
+        schema_data = json.dumps(schema, sort_keys=True, separators=(",", ":")).encode()
+        schema_id = schema_ids.get((schema_name, schema_data))
+        if schema_id is None:
+            schema_id = writer.register_schema(schema_name, "jsonschema", schema_data)
+            schema_ids[(schema_name, schema_data)] = schema_id
+        channel_id = writer.register_channel(topic, "json", schema_id)
+        channel_ids[key] = channel_id
+    return channel_id
+
+
+def _due(now_ns: int, last_ns: int, interval_ns: int) -> bool:
+    """Whether ``interval_ns`` has passed since ``last_ns`` (or the clock stepped back)."""
+    return now_ns - last_ns >= interval_ns or now_ns < last_ns
+
+
+# --------------------------------------------------------------------------- recorder
+
+
+class Recorder:
+    """Thread-safe MCAP recorder with rotation, a disk budget, bounded crash loss.
+
+    Parameters
+    ----------
+    directory : path
+        Recording directory, created if needed. Unfinished files of an earlier run are not
+        touched: run :func:`recover_directory` first.
+    site : str
+        Site name, the files' prefix (letters, digits, ``.``, ``_`` and ``-``).
+    rotate_s, rotate_bytes : float, int
+        Start a new file when the current one is this old (seconds, on ``clock``) or this big.
+    budget_bytes, min_free_bytes : int
+        Disk budget for all recordings of the directory, and free space to keep.
+    flush_interval_s, fsync_interval_s : float
+        How often the open chunk is written out and the file ``fsync``-ed (seconds).
+    chunk_size : int
+        Uncompressed bytes after which the mcap writer finishes a chunk on its own.
+    compression : str
+        ``"zstd"``, ``"lz4"`` or ``"none"``; falls back to what is installed, with a warning.
+    clock : callable
+        Integer nanoseconds since the epoch: names files and drives every interval.
+    budget_interval_s, retry_interval_s : float
+        How often the budget is enforced, and a new file is tried after a disk error (seconds).
+    """
+
+    def __init__(
+        self,
+        directory: str | os.PathLike,
+        *,
+        site: str,
+        rotate_s: float = 3600.0,
+        rotate_bytes: int = 256 * 2**20,
+        budget_bytes: int = 4 * 2**30,
+        min_free_bytes: int = 512 * 2**20,
+        flush_interval_s: float = 1.0,
+        fsync_interval_s: float = 5.0,
+        chunk_size: int = 256 * 1024,
+        compression: str = "zstd",
+        clock: Callable[[], int] = time.time_ns,
+        budget_interval_s: float = 5.0,
+        retry_interval_s: float = 1.0,
+    ) -> None:
+        if not _SITE_RE.fullmatch(site):
+            raise ValueError(f"site: expected letters, digits, '.', '_' or '-', got {site!r}")
+        for name, value in [
+            ("rotate_s", rotate_s),
+            ("rotate_bytes", rotate_bytes),
+            ("flush_interval_s", flush_interval_s),
+            ("fsync_interval_s", fsync_interval_s),
+            ("chunk_size", chunk_size),
+            ("budget_interval_s", budget_interval_s),
+            ("retry_interval_s", retry_interval_s),
+        ]:
+            if not value > 0:
+                raise ValueError(f"{name}: must be > 0, got {value!r}")
+        self.directory = Path(directory)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.site = site
+        self.rotate_ns = round(rotate_s * 1e9)
+        self.rotate_bytes = int(rotate_bytes)
+        self.budget_bytes = int(budget_bytes)
+        self.min_free_bytes = int(min_free_bytes)
+        self.flush_ns = round(flush_interval_s * 1e9)
+        self.fsync_ns = round(fsync_interval_s * 1e9)
+        self.budget_ns = round(budget_interval_s * 1e9)
+        self.retry_ns = round(retry_interval_s * 1e9)
+        self.chunk_size = int(chunk_size)
+        self.compression = _compression(compression)
+        self._clock = clock
+
+        self._lock = threading.Lock()
+        self._budget_lock = threading.Lock()
+        self._logs: list[tuple[int, str, tuple]] = []  # emitted once the lock is released
+        # the file being written
+        self._path: Path | None = None
+        self._stream: BinaryIO | None = None
+        self._writer: Writer | None = None
+        self._schema_ids: dict[tuple[str, bytes], int] = {}
+        self._channel_ids: dict[tuple[str, str], int] = {}
+        self._file_start_ns = 0
+        self._file_messages = 0
+        self._unflushed = 0  # messages of this file that may still be in memory only
+        self._last_flush_ns = self._last_fsync_ns = 0
+        # the recorder
+        self._last_budget_ns = clock()
+        self._budget_due = False
+        self._budget_short = False
+        self._failing = False
+        self._last_retry_ns = 0
+        self._abandoned: list[Path] = []
+        self._closed = False
+        self._messages = self._dropped = self._files_deleted = 0
+
+    # ----------------------------------------------------------------- public API
+
+    def write(self, topic: str, schema_name: str, schema: dict, message: Any, *, t_ns: int) -> bool:
+        """Record ``message`` on ``topic`` at ``t_ns`` (log and publish time, ns since epoch).
+
+        The schema of a ``(topic, schema_name)`` pair is taken from its first use in each file.
+        Returns ``False`` when the message was dropped (disk error, or recorder closed); never
+        raises ``OSError``. ``TypeError`` for a message JSON cannot encode.
+        """
+        data = encode_json(message)
+        with self._locked():
+            now = self._clock()
+            ok = self._write_locked(topic, schema_name, schema, data, int(t_ns), now)
+            fsync_fd, budget = self._maintenance_locked(now)
+            ok = ok and self._writer is not None  # else lost (and counted) with its chunk
+        self._maintain(fsync_fd, budget)
+        return ok
+
+    def flush(self) -> None:
+        """Write the open chunk out now; rotate, ``fsync`` and enforce the budget when due."""
+        with self._locked():
+            now = self._clock()
+            if self._writer is not None:
+                try:
+                    if self._rotation_due(now):
+                        self._finish()
+                    else:
+                        self._flush_locked(now)
+                except OSError as exc:
+                    self._fail(exc, now)
+            fsync_fd, budget = self._maintenance_locked(now)
+        self._maintain(fsync_fd, budget)
+
+    def close(self) -> None:
+        """Finish the current file (``.part`` → ``.mcap``). Idempotent; later writes are dropped."""
+        with self._locked():
+            if self._closed:
+                return
+            self._closed = True
+            if self._writer is not None:
+                try:
+                    self._finish()
+                except OSError as exc:
+                    self._fail(exc, self._clock())
+
+    def stats(self) -> dict:
+        """Counters for the health report.
+
+        ``file`` (the ``.part`` being written or ``None``), ``file_bytes``, ``messages`` (written),
+        ``dropped``, ``files_deleted``, ``free_bytes`` (filesystem), ``total_bytes`` (recordings
+        of the directory).
+        """
+        with self._locked():
+            file_bytes = 0
+            if self._stream is not None:
+                with suppress(OSError, ValueError):
+                    file_bytes = self._stream.tell()
+            stats = {
+                "file": str(self._path) if self._path else None,
+                "file_bytes": file_bytes,
+                "messages": self._messages,
+                "dropped": self._dropped,
+                "files_deleted": self._files_deleted,
+            }
+        try:
+            stats["free_bytes"] = _free_bytes(self.directory)
+        except OSError:
+            stats["free_bytes"] = 0
+        stats["total_bytes"] = sum(r.size for r in _recordings(self.directory))
+        return stats
+
+    def __enter__(self) -> Recorder:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    # ----------------------------------------------------------------- under the lock
+
+    @contextmanager
+    def _locked(self) -> Iterator[None]:
+        """Hold the lock; log what was logged under it only after releasing it.
+
+        A log handler that records into this recorder then never deadlocks on the lock.
+        """
+        try:
+            with self._lock:
+                yield
+        finally:
+            logs, self._logs = self._logs, []
+            for level, msg, args in logs:
+                log.log(level, msg, *args)
+
+    def _log(self, level: int, msg: str, *args: object) -> None:
+        self._logs.append((level, msg, args))
+
+    def _write_locked(
+        self, topic: str, schema_name: str, schema: dict, data: bytes, t_ns: int, now: int
+    ) -> bool:
+        if self._closed:
+            self._dropped += 1
+            return False
+        try:
+            if self._writer is None:
+                if self._failing:
+                    if not _due(now, self._last_retry_ns, self.retry_ns):
+                        self._dropped += 1
+                        return False
+                    self._last_retry_ns = now  # the budget ran after the failure (_fail)
+                self._open(now)
+            elif self._rotation_due(now):
+                self._finish()
+                self._open(now)
+            writer, stream = self._writer, self._stream
+            channel_id = _channel_id(
+                writer, self._schema_ids, self._channel_ids, topic, schema_name, schema
+            )
+            before = stream.tell()
+            writer.add_message(channel_id, log_time=t_ns, data=data, publish_time=t_ns)
+            self._unflushed = 0 if stream.tell() != before else self._unflushed + 1
+        except OSError as exc:
+            self._fail(exc, now)
+            self._dropped += 1
+            return False
+        self._messages += 1
+        self._file_messages += 1
+        if self._failing:
+            self._failing = False
+            self._log(
+                logging.WARNING,
+                "recording resumed in %s (%d messages dropped so far)",
+                self._path,
+                self._dropped,
+            )
+        return True
+
+    def _rotation_due(self, now: int) -> bool:
+        if now < self._file_start_ns:  # the clock stepped back: count the age from now
+            self._file_start_ns = now
+        return now - self._file_start_ns >= self.rotate_ns or (
+            self._stream.tell() >= self.rotate_bytes
+        )
+
+    def _new_path(self, now: int) -> Path:
+        start = datetime.fromtimestamp(now // 1_000_000_000, UTC).strftime("%Y%m%dT%H%M%SZ")
+        for seq in range(10_000):
+            stem = f"{self.site}_{start}" + (f"-{seq}" if seq else "")
+            final = self.directory / f"{stem}.mcap"
+            part = self.directory / f"{stem}.mcap.part"
+            if not final.exists() and not part.exists():
+                return part
+        raise FileExistsError(f"{self.directory}: no free name for {self.site}_{start}")
+
+    def _open(self, now: int) -> None:
+        """Start a new ``.part`` file: magic and header on disk before the first message."""
+        self.directory.mkdir(parents=True, exist_ok=True)
+        path = self._new_path(now)
+        stream = _open_stream(path)
+        try:
+            writer = Writer(stream, chunk_size=self.chunk_size, compression=self.compression)
+            writer.start(profile="", library=LIBRARY)
+            stream.flush()
+        except OSError:
+            with suppress(OSError, ValueError):
+                stream.close()
+            with suppress(OSError):
+                path.unlink()
+            raise
+        self._path, self._stream, self._writer = path, stream, writer
+        self._schema_ids.clear()
+        self._channel_ids.clear()
+        self._file_start_ns = self._last_flush_ns = self._last_fsync_ns = now
+        self._file_messages = self._unflushed = 0
+        self._log(logging.INFO, "recording to %s", path)
+
+    def _flush_locked(self, now: int) -> None:
+        self._writer.flush()
+        self._unflushed = 0
+        self._last_flush_ns = now
+
+    def _finish(self) -> None:
+        """Finish, ``fsync`` and close the current file, then rename ``.part`` → ``.mcap``."""
+        path, stream, writer = self._path, self._stream, self._writer
+        writer.finish()
+        stream.flush()
+        os.fsync(stream.fileno())
+        stream.close()
+        self._path = self._stream = self._writer = None
+        final = path.with_suffix("")  # drop ".part"
+        try:
+            os.replace(path, final)
+        except OSError:
+            self._abandoned.append(path)
+            raise
+        _fsync_directory(self.directory)
+        self._budget_due = True
+        self._log(logging.INFO, "finished %s (%d messages)", final, self._file_messages)
+
+    def _fail(self, exc: OSError, now: int) -> None:
+        """Abandon the current file after a write error; start or continue an episode."""
+        if self._writer is not None:
+            self._dropped += self._unflushed
+            with suppress(OSError, ValueError):
+                self._stream.close()
+            self._abandoned.append(self._path)
+            self._path = self._stream = self._writer = None
+        if not self._failing:
+            self._failing = True
+            self._log(
+                logging.ERROR,
+                "recording stopped: %s; dropping messages, retrying every %.1f s",
+                exc,
+                self.retry_ns / 1e9,
+            )
+        self._last_retry_ns = now
+        self._budget_due = True
+
+    def _maintenance_locked(self, now: int) -> tuple[int | None, bool]:
+        """Flush when due; return a duplicated fd to ``fsync`` and whether to run the budget."""
+        fsync_fd = None
+        if self._writer is not None:
+            try:
+                if _due(now, self._last_flush_ns, self.flush_ns):
+                    self._flush_locked(now)
+                if _due(now, self._last_fsync_ns, self.fsync_ns):
+                    self._last_fsync_ns = now
+                    fsync_fd = os.dup(self._stream.fileno())
+            except OSError as exc:
+                self._fail(exc, now)
+        budget = self._budget_due or _due(now, self._last_budget_ns, self.budget_ns)
+        if budget:
+            self._budget_due = False
+            self._last_budget_ns = now
+        return fsync_fd, budget
+
+    # ----------------------------------------------------------------- outside the lock
+
+    def _maintain(self, fsync_fd: int | None, budget: bool) -> None:
+        """``fsync`` (on a duplicated descriptor) and enforce the budget, without the lock."""
+        if fsync_fd is not None:
+            try:
+                os.fsync(fsync_fd)
+            except OSError as exc:
+                log.warning("fsync of the recording failed: %s", exc)
+            finally:
+                os.close(fsync_fd)
+        if budget:
+            with self._lock:
+                current, abandoned = self._path, set(self._abandoned)
+            self._enforce_budget(current, abandoned)
+
+    def _enforce_budget(self, current: Path | None, abandoned: set[Path]) -> None:
+        """Delete this site's oldest finished (or abandoned) files until the budget holds.
+
+        Safe without the recorder lock: the file being written is a ``.part`` and only
+        finished files and files this recorder abandoned are candidates.
+        """
+        if not self._budget_lock.acquire(blocking=False):
+            return  # another thread is at it
+        try:
+            files = _recordings(self.directory)
+            total = sum(r.size for r in files)
+            try:
+                free = _free_bytes(self.directory)
+            except OSError:
+                free = self.min_free_bytes
+            candidates = sorted(
+                (
+                    r
+                    for r in files
+                    if r.site == self.site
+                    and r.path != current
+                    and (r.finished or r.path in abandoned)
+                ),
+                key=lambda r: r.order,
+            )
+            deleted = 0
+            while (total > self.budget_bytes or free < self.min_free_bytes) and candidates:
+                oldest = candidates.pop(0)
+                try:
+                    oldest.path.unlink()
+                except FileNotFoundError:
+                    continue
+                except OSError as exc:
+                    log.warning("cannot delete %s to free space: %s", oldest.path, exc)
+                    continue
+                total -= oldest.size
+                free += oldest.size
+                deleted += 1
+                log.info(
+                    "deleted %s (%d bytes) for the disk budget: recordings now %d bytes "
+                    "(budget %d), %d bytes free (minimum %d)",
+                    oldest.path,
+                    oldest.size,
+                    total,
+                    self.budget_bytes,
+                    free,
+                    self.min_free_bytes,
+                )
+            short = total > self.budget_bytes or free < self.min_free_bytes
+            if short and not self._budget_short:
+                log.warning(
+                    "disk budget not met and nothing left to delete: recordings %d bytes "
+                    "(budget %d), %d bytes free (minimum %d)",
+                    total,
+                    self.budget_bytes,
+                    free,
+                    self.min_free_bytes,
+                )
+            with self._lock:
+                self._budget_short = short
+                self._files_deleted += deleted
+                self._abandoned = [p for p in self._abandoned if p.exists()]
+        finally:
+            self._budget_lock.release()
+
+
+class McapFile:
+    """One MCAP file written from start to finish, for offline tools (``weatherd replay``).
+
+    Same messages as :class:`Recorder` (JSON with JSON Schemas) but no rotation, budget or
+    timers, and errors raise. Written as ``<path>.part`` and renamed to ``path`` by
+    :meth:`close` (also on leaving the ``with`` block, even on an exception: what was written
+    is kept).
+    """
+
+    def __init__(
+        self, path: str | os.PathLike, *, chunk_size: int = 2**20, compression: str = "zstd"
+    ) -> None:
+        self.path = Path(path)
+        self._part = self.path.with_name(self.path.name + ".part")
+        self._stream = open(self._part, "wb")  # closed by close()
+        self._writer = Writer(
+            self._stream, chunk_size=chunk_size, compression=_compression(compression)
+        )
+        self._writer.start(profile="", library=LIBRARY)
+        self._schema_ids: dict[tuple[str, bytes], int] = {}
+        self._channel_ids: dict[tuple[str, str], int] = {}
+        self._closed = False
+        self.messages = 0
+
+    def write(self, topic: str, schema_name: str, schema: dict, message: Any, *, t_ns: int) -> bool:
+        """Like :meth:`Recorder.write`, but an ``OSError`` raises; always returns ``True``."""
+        if self._closed:
+            raise ValueError(f"{self.path}: write after close")
+        channel_id = _channel_id(
+            self._writer, self._schema_ids, self._channel_ids, topic, schema_name, schema
+        )
+        data = encode_json(message)
+        self._writer.add_message(channel_id, log_time=int(t_ns), data=data, publish_time=int(t_ns))
+        self.messages += 1
+        return True
+
+    def close(self) -> None:
+        """Finish the file and rename it into place. Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.finish()
+            self._stream.flush()
+            os.fsync(self._stream.fileno())
+        finally:
+            self._stream.close()
+        os.replace(self._part, self.path)
+
+    def __enter__(self) -> McapFile:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class RecorderLogHandler(logging.Handler):
+    """A logging handler that records each log record as ``foxglove.Log`` on ``topic``."""
+
+    def __init__(self, recorder: Recorder, *, topic: str = "/log", level: int = logging.INFO):
+        super().__init__(level)
+        self.recorder = recorder
+        self.topic = topic
+        self._local = threading.local()
+
+    def emit(self, record: logging.LogRecord) -> None:
+        """Write ``record``; a record logged while doing so (same thread) is not recorded."""
+        if getattr(self._local, "busy", False):
+            return
+        self._local.busy = True
+        try:
+            message = log_message(record)
+            t_ns = message["timestamp"]["sec"] * 1_000_000_000 + message["timestamp"]["nsec"]
+            self.recorder.write(self.topic, "foxglove.Log", FOXGLOVE_LOG_SCHEMA, message, t_ns=t_ns)
+        except Exception:
+            self.handleError(record)
+        finally:
+            self._local.busy = False
+
+
+# --------------------------------------------------------------------------- repair
+
+
+@dataclass(frozen=True)
+class RecoverResult:
+    """What :func:`recover` salvaged.
+
+    ``dst`` is ``None`` when nothing was written (``recover_directory`` removed an empty file).
+    Times are log times in ns since the epoch (``None`` without messages); ``bytes_kept`` +
+    ``bytes_dropped`` is the size of ``src``; ``complete`` says ``src`` was a finished file.
+    """
+
+    src: Path
+    dst: Path | None
+    messages: int
+    channels: int
+    schemas: int
+    first_log_time_ns: int | None
+    last_log_time_ns: int | None
+    bytes_kept: int
+    bytes_dropped: int
+    complete: bool
+
+
+class _Scan:
+    """Progress of :func:`_complete_records` over one file."""
+
+    def __init__(self) -> None:
+        self.end = len(MCAP_MAGIC)  # end of the last complete record
+        self.complete = False
+
+
+def _parse(opcode: int, body: bytes) -> list[McapRecord]:
+    """The records of one complete top-level record body (a chunk gives its contents)."""
+    stream = ReadDataStream(io.BytesIO(body))
+    if opcode == Opcode.CHUNK:
+        chunk = Chunk.read(stream)
+        if chunk.uncompressed_size > _MAX_CHUNK_BYTES:
+            raise ValueError("implausible chunk size")
+        return breakup_chunk(chunk, validate_crc=True)
+    if opcode == Opcode.MESSAGE:
+        if len(body) < 22:
+            raise ValueError("short message record")
+        return [Message.read(stream, len(body))]
+    readers = {
+        Opcode.HEADER: Header.read,
+        Opcode.SCHEMA: Schema.read,
+        Opcode.CHANNEL: Channel.read,
+        Opcode.FOOTER: Footer.read,
+    }
+    return [readers[opcode](stream)] if opcode in readers else []
+
+
+def _complete_records(f: BinaryIO, size: int, scan: _Scan) -> Iterator[McapRecord]:
+    """Each complete record after the magic, chunks opened; stops at the first bad one.
+
+    Every record is read whole (its length checked against the file size first) and parsed
+    from memory, so a corrupt length can neither allocate without bound nor read past it.
+    """
+    while True:
+        prefix = f.read(9)
+        if len(prefix) < 9:
+            return
+        opcode, length = struct.unpack("<BQ", prefix)
+        if opcode == 0 or length > size - scan.end - 9:
+            return
+        body = f.read(length)
+        if len(body) < length:
+            return
+        try:
+            records = _parse(opcode, body)
+        except _CORRUPT:
+            return
+        scan.end += 9 + length
+        yield from records
+        if opcode == Opcode.FOOTER:
+            scan.complete = f.read(len(MCAP_MAGIC)) == MCAP_MAGIC
+            if scan.complete:
+                scan.end += len(MCAP_MAGIC)
+            return
+
+
+def recover(
+    src: str | os.PathLike, dst: str | os.PathLike, *, compression: str = "zstd"
+) -> RecoverResult:
+    """Copy every complete schema, channel and message of ``src`` into a finished MCAP ``dst``.
+
+    ``src`` may be unfinished (no summary or footer), truncated anywhere, or have garbage after
+    the last good record: reading stops cleanly at the first incomplete or corrupt record.
+    ``dst`` is written to a temporary file and renamed, so it is either absent or finished; it
+    may be ``src`` itself. Running it twice gives the same result.
+
+    Raises
+    ------
+    InputError
+        ``src`` cannot be read or does not start with the MCAP magic (empty included).
+    OSError
+        ``dst`` cannot be written.
+    """
+    src, dst = Path(src), Path(dst)
+    try:
+        f = open(src, "rb")  # closed by the with below
+    except OSError as exc:
+        raise InputError(f"{src}: cannot open: {exc.strerror or exc}") from None
+    with f:
+        try:
+            size = os.fstat(f.fileno()).st_size
+            magic = f.read(len(MCAP_MAGIC))
+        except OSError as exc:
+            raise InputError(f"{src}: cannot read: {exc.strerror or exc}") from None
+        if magic != MCAP_MAGIC:
+            what = "empty" if not magic else "no MCAP magic at the start"
+            raise InputError(f"{src}: not an MCAP file ({what})")
+        scan = _Scan()
+        tmp = dst.with_name(dst.name + ".tmp")
+        try:
+            counts = _copy_records(_complete_records(f, size, scan), tmp, compression)
+            os.replace(tmp, dst)
+        except BaseException:
+            with suppress(OSError):
+                tmp.unlink()
+            raise
+    return RecoverResult(
+        src,
+        dst,
+        *counts,
+        bytes_kept=scan.end,
+        bytes_dropped=size - scan.end,
+        complete=scan.complete,
+    )
+
+
+def _copy_records(
+    records: Iterator[McapRecord], out_path: Path, compression: str
+) -> tuple[int, int, int, int | None, int | None]:
+    """Write ``records`` (ids renumbered, repeats ignored) to a finished MCAP at ``out_path``.
+
+    Returns the numbers of messages, channels and schemas, and the first and last log times.
+    """
+    schema_ids: dict[int, int] = {}
+    channel_ids: dict[int, int] = {}
+    messages, first, last = 0, None, None
+    with open(out_path, "wb") as out:
+        writer = Writer(out, compression=_compression(compression))
+        first_record = next(records, None)
+        profile = first_record.profile if isinstance(first_record, Header) else ""
+        writer.start(profile=profile, library=LIBRARY)
+        head = [first_record] if first_record is not None else []
+        for record in itertools.chain(head, records):
+            if isinstance(record, Schema) and record.id not in schema_ids:
+                schema_ids[record.id] = writer.register_schema(
+                    record.name, record.encoding, record.data
+                )
+            elif isinstance(record, Channel) and record.id not in channel_ids:
+                if record.schema_id != 0 and record.schema_id not in schema_ids:
+                    continue  # its schema was lost: its messages cannot be decoded
+                channel_ids[record.id] = writer.register_channel(
+                    record.topic,
+                    record.message_encoding,
+                    schema_ids.get(record.schema_id, 0),
+                    record.metadata,
+                )
+            elif isinstance(record, Message) and record.channel_id in channel_ids:
+                writer.add_message(
+                    channel_ids[record.channel_id],
+                    log_time=record.log_time,
+                    data=record.data,
+                    publish_time=record.publish_time,
+                    sequence=record.sequence,
+                )
+                messages += 1
+                first = record.log_time if first is None else min(first, record.log_time)
+                last = record.log_time if last is None else max(last, record.log_time)
+        writer.finish()
+        out.flush()
+        os.fsync(out.fileno())
+    return messages, len(channel_ids), len(schema_ids), first, last
+
+
+def recover_directory(directory: str | os.PathLike) -> list[RecoverResult]:
+    """Repair each ``*.mcap.part`` of ``directory`` into its ``*.mcap`` and remove the ``.part``.
+
+    A ``.part`` without a complete message (empty, header only, cut inside the magic) is just
+    removed. One that is not MCAP at all is logged and left in place. Safe to run twice, and
+    after a crash in the middle of a run. Never raises for a bad or unwritable file: it is
+    logged and skipped. Returns one result per ``.part`` handled (``dst`` ``None`` if removed).
+    """
+    directory = Path(directory)
+    results: list[RecoverResult] = []
+    if not directory.is_dir():
+        return results
+    for stale in directory.glob("*.mcap.tmp"):  # a repair cut short by a crash
+        with suppress(OSError):
+            stale.unlink()
+            log.info("removed %s, left over from an interrupted repair", stale)
+    for part in sorted(directory.glob("*.mcap.part")):
+        dst = part.with_suffix("")
+        try:
+            if part.stat().st_size < len(MCAP_MAGIC) and MCAP_MAGIC.startswith(part.read_bytes()):
+                part.unlink()
+                log.info("removed %s: cut before the end of the MCAP magic", part)
+                results.append(_empty_result(part))
+                continue
+            result = recover(part, dst)
+            if result.messages == 0:
+                dst.unlink()
+                part.unlink()
+                log.info("removed %s: no complete message", part)
+                results.append(replace(result, dst=None))
+                continue
+            part.unlink()
+        except InputError as exc:
+            log.warning("cannot repair %s, left in place: %s", part, exc)
+            continue
+        except OSError as exc:
+            log.warning("cannot repair %s now, will retry at the next start: %s", part, exc)
+            continue
+        log.info(
+            "repaired %s -> %s: %d messages, %d bytes dropped at the tail",
+            part,
+            dst.name,
+            result.messages,
+            result.bytes_dropped,
+        )
+        results.append(result)
+    return results
+
+
+def _empty_result(src: Path) -> RecoverResult:
+    return RecoverResult(
+        src=src,
+        dst=None,
+        messages=0,
+        channels=0,
+        schemas=0,
+        first_log_time_ns=None,
+        last_log_time_ns=None,
+        bytes_kept=0,
+        bytes_dropped=0,
+        complete=False,
+    )
