@@ -30,6 +30,7 @@ test: install lint
 
 bench: install
 	$(BIN)/python bench/bench_detector.py
+	$(BIN)/python bench/bench_zenoh_sites.py --sites 200 --seconds 20
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache

@@ -13,24 +13,23 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
+import faulthandler
 import json
 import logging
-import math
 import os
 import signal
 import sys
 import threading
 import time
-import tomllib
 import traceback
-import typing
 from collections import deque
 from collections.abc import Iterator, Sequence
-from typing import Any, NoReturn, TextIO
+from typing import NoReturn, TextIO
 
 import cv2
 import numpy as np
 
+from daemon.config import Config, detector_params, load_config, parse_config
 from daemon.detection import detect_frames
 from drivers.errors import ConfigError, InputError, WeatherdError
 from drivers.video import Frame, VideoWriter, open_video, read_gray_image
@@ -44,10 +43,8 @@ __all__ = ["detector_params", "load_config", "main", "read_roi"]
 # Not __name__: ``python -m daemon.cli`` runs this module as ``__main__``.
 log = logging.getLogger("daemon.cli")
 
-#: The demo camera of ``weatherd run`` until the daemon has real frame sources.
-DEMO_WIDTH, DEMO_HEIGHT, DEMO_FPS = 640, 360, 25.0
-#: Seconds between two summary lines of ``weatherd run``.
-SUMMARY_INTERVAL_S = 5.0
+#: Where ``watch`` and ``get`` connect by default: the demo configuration's listen endpoint.
+DEFAULT_CONNECT = "tcp/127.0.0.1:7447"
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
@@ -175,82 +172,116 @@ def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.nda
 
 # -- run ---------------------------------------------------------------------------------
 def _run(args: argparse.Namespace) -> int:
-    """``weatherd run``: the detector on the demo camera, in real time, until a signal.
+    """``weatherd run``: the service, until SIGINT or SIGTERM (a second one forces the exit).
 
-    A minimal loop until the daemon (capture thread, fusion, Zenoh, MCAP) replaces it.
+    Exit statuses: 0 after a signal, 2 for a configuration error (systemd does not restart on
+    it), 1 for anything unexpected (systemd restarts).
     """
-    config, params = _config_params(args.config)
-    site = _site_id(config)
-    from hos.render import demo_frames  # the demo camera; imported only when needed
+    from daemon.app import Daemon  # imports Zenoh and the recorder only when needed
 
+    # A watchdog timeout is a SIGABRT: the journal then shows where every thread was.
+    faulthandler.enable(all_threads=True)
+
+    config = load_config(args.config) if args.config else parse_config({})
     stop = _StopOnSignals()
-    detector = HosDetector(params)
-    period = 1.0 / DEMO_FPS
-    frames = demo_frames(DEMO_WIDTH, DEMO_HEIGHT, DEMO_FPS, seed=0)
-    log.info(
-        "site %s: demo camera %dx%d at %g fps; SIGINT or SIGTERM stops",
-        site,
-        DEMO_WIDTH,
-        DEMO_HEIGHT,
-        DEMO_FPS,
-    )
-    processed = window_frames = 0
-    verdict: tuple[bool, str] | None = None
-    due = window_start = time.monotonic()
     try:
-        for i, (gray, _truth) in enumerate(frames):
-            if not _sleep_until(due, stop.event):
-                break
-            result = detector.process(gray, i * period)
-            processed += 1
-            window_frames += 1
-            if (result.rain, result.state) != verdict:
-                verdict = (result.rain, result.state)
-                log.info(
-                    "%s, state %s (pi_smoothed=%.2f)",
-                    "RAIN" if result.rain else "no rain",
-                    result.state,
-                    result.pi_smoothed,
-                )
-            now = time.monotonic()
-            if now - window_start >= SUMMARY_INTERVAL_S:
-                log.info("%s  fps=%.1f", _status(result), window_frames / (now - window_start))
-                window_start, window_frames = now, 0
-            due += period
-            if now - due > 1.0:  # over a second late: carry on from now, do not race
-                due = now
+        status = Daemon(config, stop=stop.event).run()
     finally:
-        frames.close()
         stop.restore()
     if stop.signum is not None:
-        log.info("%s: stopped after %d frames", signal.Signals(stop.signum).name, processed)
+        log.info("%s received; exited cleanly", signal.Signals(stop.signum).name)
+    return status
+
+
+def _replay(args: argparse.Namespace) -> int:
+    """``weatherd replay VIDEO... --out FILE.mcap``: the daemon's MCAP, offline."""
+    from daemon.replay import parse_start, replay
+
+    config = load_config(args.config) if args.config else parse_config({})
+    summary = replay(
+        args.videos,
+        args.out,
+        site=config.site.id if args.config else "replay",
+        camera=args.camera,
+        params=detector_params({"detector": config.detector}),
+        recording=config.recording,
+        start_ns=parse_start(args.start) if args.start else None,
+        fps=args.fps,
+        progress=not args.no_progress,
+    )
+    print(json.dumps(_as_json(summary), separators=(",", ":")))
     return EXIT_OK
 
 
-def _status(result: FrameResult) -> str:
-    j = result.to_json()
-    return (
-        f"rain={j['rain']} state={j['state']} pi={_fmt(j['pi_smoothed'], '.2f')} "
-        f"mu={_fmt(j['mu_smoothed_deg'], '.1f')} R={_fmt(j['R'], '.1f')}"
+def _check_config(args: argparse.Namespace) -> int:
+    """``weatherd check-config PATH``: validate, print a one-line summary, exit 0 or 2."""
+    from daemon.app import check_paths
+    from drivers.frames import mask_credentials
+
+    config = load_config(args.path)
+    try:
+        check_paths(config)
+    except ConfigError as exc:
+        raise ConfigError(f"{args.path}: {exc}") from None
+    cams = (
+        ", ".join(f"{c.id} ({mask_credentials(c.source)})" for c in config.camera)
+        or "the demo camera"
+    )
+    print(f"{args.path}: valid; site {config.site.id}; cameras: {cams}")
+    return EXIT_OK
+
+
+def _recover(args: argparse.Namespace) -> int:
+    """``weatherd recover BROKEN.mcap OUT.mcap``: repair an unfinished recording."""
+    from daemon.recorder import recover
+
+    result = recover(args.broken, args.out)
+    print(json.dumps(_as_json(result), separators=(",", ":")))
+    return EXIT_OK
+
+
+def _as_json(value: object) -> object:
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {k: _as_json(v) for k, v in dataclasses.asdict(value).items()}
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    return value
+
+
+def _watch(args: argparse.Namespace) -> int:
+    """``weatherd watch [KEYEXPR]``: print Zenoh samples as JSON lines until Ctrl-C."""
+    from daemon.watch import watch
+
+    return watch(
+        args.keyexpr,
+        _zenoh_conf(args),
+        count=args.count,
+        timeout_s=args.timeout,
     )
 
 
-def _fmt(value: float | None, spec: str) -> str:
-    return "-" if value is None else format(value, spec)
+def _get(args: argparse.Namespace) -> int:
+    """``weatherd get SELECTOR``: query the daemon's queryable, one JSON line per reply."""
+    from daemon.watch import get
+
+    replies = get(args.selector, _zenoh_conf(args), timeout_s=args.timeout or 5.0)
+    for reply in replies:
+        print(json.dumps(reply, separators=(",", ":")), flush=True)
+    if not replies:
+        raise InputError(f"{args.selector}: no reply (is the daemon running and reachable?)")
+    return EXIT_OK
 
 
-def _sleep_until(deadline: float, stop: threading.Event) -> bool:
-    """Sleep until ``deadline`` (monotonic seconds); False at once if ``stop`` is set.
+def _zenoh_conf(args: argparse.Namespace) -> object:
+    from daemon.publisher import zenoh_config
 
-    Sleeps in short steps instead of ``stop.wait``: the main thread, where the signal handler
-    runs, must never hold the event's lock (``Event.set`` in the handler would deadlock).
-    """
-    while not stop.is_set():
-        remaining = deadline - time.monotonic()
-        if remaining <= 0.0:
-            return True
-        time.sleep(min(remaining, 0.1))
-    return False
+    zc = load_config(args.config).zenoh if args.config else None
+    connect = args.connect or (zc.connect if zc else []) or [DEFAULT_CONNECT]
+    return zenoh_config(
+        mode=args.mode,  # None: the config file's mode, else peer
+        connect=connect,
+        config_file=zc.config_file if zc else None,
+    )
 
 
 class _StopOnSignals:
@@ -276,89 +307,12 @@ class _StopOnSignals:
 
 
 # -- configuration -----------------------------------------------------------------------
-def _config_params(path: str | None) -> tuple[dict[str, Any], DetectorParams]:
-    """The configuration file (or none) and its detector parameters; errors name the file."""
+def _config_params(path: str | None) -> tuple[Config | None, DetectorParams]:
+    """The configuration file (or none) and its global detector parameters."""
     if path is None:
-        return {}, DetectorParams()
+        return None, DetectorParams()
     config = load_config(path)
-    try:
-        return config, detector_params(config)
-    except ConfigError as exc:
-        raise ConfigError(f"{path}: {exc}") from None
-
-
-def load_config(path: str | os.PathLike[str]) -> dict[str, Any]:
-    """The TOML configuration file as a dict.
-
-    Raises
-    ------
-    ConfigError : the file cannot be read or is not valid TOML.
-    """
-    try:
-        with open(path, "rb") as f:
-            return tomllib.load(f)
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read the configuration ({exc.strerror})") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"{path}: not valid TOML ({exc})") from None
-
-
-def detector_params(config: dict[str, Any]) -> DetectorParams:
-    """Detector parameters from the optional ``[detector]`` table of the configuration.
-
-    Sub-tables ``segmentation``, ``histogram``, ``mixture``, ``decision``, ``robustness`` hold
-    the fields of :mod:`hos.params` (angles as ``*_deg`` keys). Values are checked against the
-    field types (an int is accepted for a float).
-
-    Raises
-    ------
-    ConfigError : naming the key, for an unknown group or key or a value of the wrong type.
-    """
-    table = config.get("detector", {})
-    if not isinstance(table, dict):
-        raise ConfigError("detector: must be a table")
-    groups = {f.name: f for f in dataclasses.fields(DetectorParams)}
-    for group, values in table.items():
-        if not isinstance(values, dict):
-            raise ConfigError(f"detector.{group}: must be a table")
-        if group not in groups:
-            continue  # from_dict names it
-        hints = typing.get_type_hints(getattr(DetectorParams(), group).__class__)
-        for key, value in values.items():
-            hint = hints.get(key.removesuffix("_deg"))
-            if hint is not None:
-                _check_value(f"detector.{group}.{key}", value, hint)
-    try:
-        return DetectorParams.from_dict(table)
-    except (ValueError, TypeError) as exc:
-        raise ConfigError(str(exc)) from None
-
-
-def _check_value(key: str, value: object, hint: object) -> None:
-    if typing.get_origin(hint) is typing.Literal:
-        choices = typing.get_args(hint)
-        if value not in choices:
-            raise ConfigError(f"{key}: must be one of {', '.join(map(repr, choices))}")
-    elif hint is bool:
-        if not isinstance(value, bool):
-            raise ConfigError(f"{key}: must be true or false, got {value!r}")
-    elif hint is int:
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise ConfigError(f"{key}: must be an integer, got {value!r}")
-    elif hint is float and (
-        isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value)
-    ):
-        raise ConfigError(f"{key}: must be a finite number, got {value!r}")
-
-
-def _site_id(config: dict[str, Any]) -> str:
-    site = config.get("site", {})
-    if not isinstance(site, dict):
-        raise ConfigError("site: must be a table")
-    site_id = site.get("id", "demo")
-    if not isinstance(site_id, str) or not site_id:
-        raise ConfigError("site.id: must be a non-empty string")
-    return site_id
+    return config, detector_params({"detector": config.detector})
 
 
 # -- plumbing ----------------------------------------------------------------------------
@@ -407,11 +361,84 @@ def _parser() -> argparse.ArgumentParser:
     run = commands.add_parser(
         "run",
         parents=[common],
-        help="the daemon (for now: the demo camera, in real time)",
-        description="Run the detector continuously until SIGINT or SIGTERM.",
+        help="the daemon: cameras in, weather state out over Zenoh, MCAP on disk",
+        description="Run the service until SIGINT or SIGTERM. Without a camera in the "
+        "configuration it watches the built-in demo camera.",
     )
     run.add_argument("--config", metavar="PATH", help="TOML configuration file")
     run.set_defaults(handler=_run)
+
+    check = commands.add_parser(
+        "check-config",
+        parents=[common],
+        help="validate a configuration file",
+        description="Validate a configuration file; exit 0 if valid, 2 with the key if not.",
+    )
+    check.add_argument("path", metavar="PATH")
+    check.set_defaults(handler=_check_config)
+
+    replay = commands.add_parser(
+        "replay",
+        parents=[common],
+        help="the daemon's pipeline over recorded video, into an MCAP file",
+        description="Run the detector over video files (one after the other, as one camera) "
+        "and write the same MCAP topics as the daemon.",
+    )
+    replay.add_argument("videos", metavar="VIDEO", nargs="+")
+    replay.add_argument("--out", metavar="FILE.mcap", required=True)
+    replay.add_argument(
+        "--start",
+        metavar="ISO-8601",
+        help="UTC time of the first frame (default: the file's modification time)",
+    )
+    replay.add_argument(
+        "--fps", type=float, metavar="N", help="frame times from this rate, not the container's"
+    )
+    replay.add_argument("--config", metavar="PATH", help="TOML file: site, detector, recording")
+    replay.add_argument("--camera", metavar="ID", default="replay", help="camera id in topics")
+    replay.add_argument("--no-progress", action="store_true", help="no progress bar")
+    replay.set_defaults(handler=_replay)
+
+    recover = commands.add_parser(
+        "recover",
+        parents=[common],
+        help="repair an unfinished MCAP recording",
+        description="Copy every complete message of an unfinished or truncated MCAP file into "
+        "a new, finished one.",
+    )
+    recover.add_argument("broken", metavar="BROKEN.mcap")
+    recover.add_argument("out", metavar="OUT.mcap")
+    recover.set_defaults(handler=_recover)
+
+    zenoh_common = argparse.ArgumentParser(add_help=False)
+    zenoh_common.add_argument(
+        "--connect",
+        action="append",
+        metavar="ENDPOINT",
+        help="a router or the daemon's listen endpoint (default tcp/127.0.0.1:7447, the demo's)",
+    )
+    zenoh_common.add_argument("--mode", choices=("peer", "client"), help="Zenoh mode")
+    zenoh_common.add_argument("--config", metavar="PATH", help="take [zenoh] from this file")
+    zenoh_common.add_argument("--timeout", type=float, metavar="S", help="stop after S seconds")
+
+    watch = commands.add_parser(
+        "watch",
+        parents=[common, zenoh_common],
+        help="print what the daemon publishes (a Zenoh subscriber)",
+        description="Subscribe to KEYEXPR and print one JSON line per sample.",
+    )
+    watch.add_argument("keyexpr", metavar="KEYEXPR", nargs="?", default="weather/**")
+    watch.add_argument("--count", type=int, metavar="N", help="stop after N samples")
+    watch.set_defaults(handler=_watch)
+
+    get = commands.add_parser(
+        "get",
+        parents=[common, zenoh_common],
+        help="query the daemon's latest values",
+        description="Query SELECTOR (e.g. 'weather/demo/**') and print one JSON line per reply.",
+    )
+    get.add_argument("selector", metavar="SELECTOR")
+    get.set_defaults(handler=_get)
     return parser
 
 

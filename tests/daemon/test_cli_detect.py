@@ -185,8 +185,8 @@ def test_config_and_roi_of_another_size_are_accepted(rainy_clip: Path, tmp_path:
 
 def test_the_shipped_config_is_valid() -> None:
     config = cli.load_config(REPO / "config" / "weatherd.toml")
-    cli.detector_params(config)
-    assert config["site"]["id"] == "demo"
+    cli.detector_params({"detector": config.detector})
+    assert config.site.id == "demo"
 
 
 # -- bad input: one line, exit 2 ---------------------------------------------------------

@@ -82,13 +82,13 @@ def test_camera_detector_overrides_the_global_table() -> None:
 def test_file_errors_name_the_file(tmp_path: Path) -> None:
     bad = tmp_path / "bad.toml"
     bad.write_text("[site\nid=1")
-    with pytest.raises(ConfigError, match="bad.toml: not valid TOML"):
+    with pytest.raises(ConfigError, match=r"bad\.toml: not valid TOML"):
         load_config(bad)
     with pytest.raises(ConfigError, match="cannot read"):
         load_config(tmp_path / "missing.toml")
     wrong = tmp_path / "wrong.toml"
     wrong.write_text('[site]\nid = "ok"\n[recording]\nrotate_s = "hourly"\n')
-    with pytest.raises(ConfigError, match=r"wrong.toml: recording.rotate_s:"):
+    with pytest.raises(ConfigError, match=r"wrong\.toml: recording\.rotate_s:"):
         load_config(wrong)
 
 
