@@ -1,0 +1,1 @@
+"""Offline tools: station reference data, calibration of R, comparison and reports."""
