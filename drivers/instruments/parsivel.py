@@ -1,0 +1,326 @@
+"""OTT Parsivel² laser disdrometer: the ``CS/PA`` answer and ``;``-separated user telegrams.
+
+Measured-value numbers (OTT Parsivel² operating instructions, section 11.2) used here::
+
+    01 rain intensity, mm/h (0000.000)         13 sensor serial number
+    02 rain amount accumulated, mm (0000.00)   14/15 firmware IOP / DSP
+    03 SYNOP wawa, WMO 4680                     16 sensor head heating current, A
+    04 SYNOP ww, WMO 4677                       17 power supply voltage, V
+    05 METAR/SPECI w'w', WMO 4678 ("  -RA")     18 sensor status: 0 ok, 1 dirty, 2 no
+    06 NWS code ("  R-")                           measurement possible (3 laser damaged)
+    07 radar reflectivity, dBZ (-9.999: dry)    19 date/time of measuring start
+    08 MOR visibility in precipitation, m       20/21 sensor time (hh:mm:ss) / date (dd.mm.yyyy)
+    09 sample interval, s                       22/23 station name / number
+    10 signal amplitude of the laser strip      24 rain amount absolute, mm
+    11 number of detected particles             25 error code
+    12 temperature in the sensor housing, °C    26/27/28 temperatures PCB / right / left head
+    30/31/32/33 16-bit intensity/amount/reflectivity; 34 kinetic energy, J/(m² h);
+    35 snow intensity (volume equivalent), mm/h; 60 all particles; 90/91 32 values per
+    diameter class; 93 the 32 x 32 raw spectrum.
+
+Two shapes arrive on the wire:
+
+- the answer to ``CS/PA`` (polled): ``TYP OP4A`` then one ``NN:value`` line per value, CR LF,
+  closed by ``<ETX><CR><LF>`` (cloudnetpy's ``_read_typ_op4a``). :class:`ParsivelFramer`
+  gathers the lines of one answer into one frame; it ends at a blank or ETX line, at the
+  next ``TYP`` or at the end of the file;
+- a user telegram (automatic), one line of values separated by ``;`` in the order of the
+  configured format string (option ``fields``). The default is what the Lindenberg logger
+  writes (cloudnetpy's tests: ``19, 1, 2, 3, 7, 8, 9, 10, 11, 12, 13, 14, 16, 17, 18, 22,
+  24, 25, 90, 91, 93``), where the leading ``YYYYMMDDhhmmss`` is the logger's timestamp
+  (taken as UTC) rather than the sensor's value 19, whose own format is
+  ``dd.mm.yyyy hh:mm:ss``. In that logger the spectrum (93) is one ``/``-separated field.
+
+Sentinels (``-9.999``) become None. The reading's time is the frame's (logger or receive
+time), else the sensor clock (values 21 + 20, taken as UTC). ``temperature_c`` is value 12,
+the temperature in the sensor housing, not the air temperature. ``fault`` is True when the
+sensor status (18) or the error code (25) is 2 or more (no usable measurement).
+Factory serial settings: 19200 baud, 8N1 (RS-485).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import re
+from collections.abc import Sequence
+from typing import Any
+
+from drivers.errors import ConfigError
+
+from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults
+from .framing import PREFIX_YMDHMS, LineFramer, is_blank
+
+__all__ = ["DEFAULT_FIELDS", "DRIVER", "ParsivelFramer", "check_options", "parse"]
+
+NAME = "ott-parsivel"
+#: The Lindenberg logger's telegram after its timestamp prefix.
+DEFAULT_FIELDS: tuple[int, ...] = (
+    *(1, 2, 3, 7, 8, 9, 10, 11, 12, 13, 14, 16, 17, 18, 22, 24, 25),
+    *(90, 91, 93),
+)
+DEFAULTS: dict[str, Any] = {"fields": DEFAULT_FIELDS, "separator": ";", "logger_prefix": True}
+
+#: value number -> (kind, Reading field or extra key). Kinds: f float, i int, s text.
+_VALUES: dict[int, tuple[str, str]] = {
+    1: ("f", "rain_rate_mm_h"),
+    2: ("f", "rain_accum_mm"),
+    3: ("i", "wawa"),
+    4: ("i", "ww"),
+    5: ("s", "metar"),
+    6: ("s", "nws_code"),
+    7: ("f", "radar_reflectivity_dbz"),
+    8: ("f", "visibility_m"),
+    9: ("i", "sample_interval_s"),
+    10: ("i", "laser_amplitude"),
+    11: ("i", "particles"),
+    12: ("f", "temperature_c"),
+    13: ("s", "serial_number"),
+    14: ("s", "firmware_iop"),
+    15: ("s", "firmware_dsp"),
+    16: ("f", "heating_current_a"),
+    17: ("f", "supply_voltage_v"),
+    18: ("i", "status"),
+    19: ("s", "measuring_start"),
+    20: ("s", "sensor_time"),
+    21: ("s", "sensor_date"),
+    22: ("s", "station_name"),
+    23: ("s", "station_number"),
+    24: ("f", "rain_amount_absolute_mm"),
+    25: ("i", "error_code"),
+    26: ("f", "temperature_pcb_c"),
+    27: ("f", "temperature_right_head_c"),
+    28: ("f", "temperature_left_head_c"),
+    30: ("f", "rain_rate_16bit_mm_h"),
+    31: ("f", "rain_rate_16bit_1200_mm_h"),
+    32: ("f", "rain_accum_16bit_mm"),
+    33: ("f", "radar_reflectivity_16bit_dbz"),
+    34: ("f", "kinetic_energy_j_m2_h"),
+    35: ("f", "snow_intensity_mm_h"),
+    60: ("i", "particles_all"),
+}
+_VECTORS = {90: 32, 91: 32, 93: 1024}  # values per field; kept out of the reading
+_READING_FIELDS = {"rain_rate_mm_h", "rain_accum_mm", "wawa", "metar", "nws_code"}
+_READING_FIELDS |= {"visibility_m", "temperature_c"}
+_SENTINEL = -9.999
+_KEY_LINE = re.compile(r"(\d{2}):(.*)")
+_CONTROL = "".join(map(chr, range(33)))
+
+
+def check_options(options: dict[str, Any]) -> dict[str, Any]:
+    """``options`` with defaults; ConfigError naming the key when invalid.
+
+    Keys: ``fields`` (the telegram's value numbers in order, default the Lindenberg
+    logger's), ``separator`` (one character, ``;``), ``logger_prefix`` (bool: lines may
+    start with a ``YYYYMMDDhhmmss`` timestamp).
+    """
+    unknown = sorted(set(options) - set(DEFAULTS))
+    if unknown:
+        raise ConfigError(f"options.{unknown[0]}: unknown option for {NAME}")
+    out = {**DEFAULTS, **options}
+    fields = out["fields"]
+    if isinstance(fields, str | bytes) or not isinstance(fields, Sequence) or not fields:
+        raise ConfigError("options.fields: expected a non-empty list of value numbers")
+    for num in fields:
+        if isinstance(num, bool) or not isinstance(num, int):
+            raise ConfigError(f"options.fields: {num!r} is not a value number")
+        if num not in _VALUES and num not in _VECTORS:
+            raise ConfigError(f"options.fields: value number {num} is not supported")
+    out["fields"] = tuple(fields)
+    sep = out["separator"]
+    if not isinstance(sep, str) or len(sep) != 1 or sep in "\r\n/":
+        raise ConfigError("options.separator: expected one character (not CR, LF or /)")
+    if not isinstance(out["logger_prefix"], bool):
+        raise ConfigError("options.logger_prefix: expected true or false")
+    return out
+
+
+class ParsivelFramer:
+    """Lines, with the lines of one ``CS/PA`` answer gathered into one frame.
+
+    A telegram line is a frame of its own (its logger timestamp, if any, in ``t_ns``). An
+    answer starts with a ``TYP`` line and ends at a blank or ETX line, the next ``TYP``, a
+    line that is not ``NN:value``, or :meth:`flush`; its frame is the lines joined by CR LF.
+    """
+
+    def __init__(self, *, logger_prefix: bool = True, max_line_bytes: int = 16384) -> None:
+        self._lines = LineFramer(
+            prefix=PREFIX_YMDHMS if logger_prefix else None,
+            max_line_bytes=max_line_bytes,
+            keep_blank=True,
+            lstrip=_CONTROL.encode("ascii"),
+        )
+        self._block: list[Frame] = []
+        self._blank_bytes = 0
+
+    @property
+    def garbage_bytes(self) -> int:
+        return self._lines.garbage_bytes + self._blank_bytes
+
+    def feed(self, data: bytes) -> list[Frame]:
+        return self._gather(self._lines.feed(data))
+
+    def flush(self) -> list[Frame]:
+        frames = self._gather(self._lines.flush())
+        self._close_block(frames)
+        return frames
+
+    def _gather(self, lines: list[Frame]) -> list[Frame]:
+        frames: list[Frame] = []
+        for line in lines:
+            text = line.data
+            if is_blank(text):
+                self._blank_bytes += len(line.data)
+                self._close_block(frames)
+            elif text.startswith(b"TYP"):
+                self._close_block(frames)
+                self._block.append(line)
+            elif self._block and _KEY_LINE.match(text.decode("latin-1")):
+                self._block.append(line)
+            else:
+                self._close_block(frames)
+                frames.append(line)
+        return frames
+
+    def _close_block(self, frames: list[Frame]) -> None:
+        if self._block:
+            first = self._block[0]
+            data = b"\r\n".join(f.data for f in self._block)
+            frames.append(Frame(data, first.t_ns, first.line))
+            self._block = []
+
+
+def make_framer(options: dict[str, Any]) -> ParsivelFramer:
+    return ParsivelFramer(logger_prefix=bool(options.get("logger_prefix", True)))
+
+
+def poll_command(options: dict[str, Any]) -> bytes:
+    """``CS/PA`` + CR LF: ask for all measured values."""
+    return b"CS/PA\r\n"
+
+
+def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
+    """A ``CS/PA`` answer or one user telegram to a :class:`Reading`.
+
+    Raises
+    ------
+    ParseError : wrong number of values for the configured ``fields``, a value that is not
+        a number where one is expected, non-ASCII bytes, an answer without values.
+    """
+    o = check_options(options or {})
+    try:
+        text = frame.data.decode("ascii")
+    except UnicodeDecodeError:
+        raise ParseError("non-ASCII bytes (noise, or a wrong baud rate)") from None
+    if text.lstrip(_CONTROL).startswith("TYP"):
+        raw = _answer_values(text)
+    else:
+        raw = _telegram_values(text, o["fields"], o["separator"])
+    return _reading(raw, frame.t_ns)
+
+
+def _answer_values(text: str) -> dict[int, str]:
+    raw: dict[int, str] = {}
+    for line in text.splitlines()[1:]:
+        m = _KEY_LINE.match(line.strip(_CONTROL))
+        if m is not None:
+            raw[int(m.group(1))] = m.group(2)
+    if not any(num in raw for num in _VALUES):
+        raise ParseError("CS/PA answer without measured values")
+    return raw
+
+
+def _telegram_values(text: str, fields: Sequence[int], sep: str) -> dict[int, str]:
+    tokens = text.strip(_CONTROL).split(sep)
+    if tokens and tokens[-1].strip() == "":
+        tokens.pop()  # the separator that ends a telegram
+    need = sum(_width(num, "/") for num in fields)
+    raw: dict[int, str] = {}
+    i = 0
+    for num in fields:
+        if i >= len(tokens):
+            raise ParseError(f"expected {need} values, got {len(tokens)}")
+        width = _width(num, tokens[i])
+        raw[num] = sep.join(tokens[i : i + width])
+        i += width
+    if i != len(tokens):
+        raise ParseError(f"expected {i} values, got {len(tokens)}")
+    return raw
+
+
+def _width(num: int, first: str) -> int:
+    """Tokens taken by value ``num`` whose first token is ``first``."""
+    if num == 93 and ("/" in first or first.startswith("<SPECTRUM>")):
+        return 1  # one "/"-separated field, or "<SPECTRUM>ZERO</SPECTRUM>"
+    return _VECTORS.get(num, 1)
+
+
+def _reading(raw: dict[int, str], t_ns: int | None) -> Reading:
+    values: dict[str, Any] = {}
+    for num, text in raw.items():
+        if num not in _VALUES:
+            continue
+        kind, key = _VALUES[num]
+        values[key] = _convert(kind, text.strip(), num)
+    for fallback, key in ((30, "rain_rate_mm_h"), (31, "rain_rate_mm_h"), (32, "rain_accum_mm")):
+        if values.get(key) is None and fallback in raw:
+            values[key] = values.get(_VALUES[fallback][1])
+    rate = values.get("rain_rate_mm_h")
+    if rate is not None and rate < 0:
+        values["rain_rate_mm_h"] = None
+    status = values.pop("status", None)
+    error = values.get("error_code")
+    codes = [c for c in (status, error) if c is not None]
+    if t_ns is None:
+        t_ns = _sensor_clock(values.get("sensor_date"), values.get("sensor_time"))
+    own = {k: values.pop(k) for k in list(values) if k in _READING_FIELDS}
+    wawa = own.get("wawa")
+    if wawa is not None and not 0 <= wawa <= 99:
+        raise ParseError(f"field 03 (wawa): {wawa} is not a WMO 4680 code")
+    return Reading(
+        driver=NAME,
+        t_ns=t_ns,
+        status=None if status is None else str(status),
+        fault=max(codes) >= 2 if codes else None,
+        extra=values,
+        **own,
+    )
+
+
+def _convert(kind: str, text: str, num: int) -> Any:
+    if kind == "s":
+        return text
+    if text == "":
+        return None
+    try:
+        value = float(text.replace(",", "."))
+    except ValueError:
+        raise ParseError(f"field {num:02d}: {text!r} is not a number") from None
+    if value == _SENTINEL:
+        return None
+    if kind == "i":
+        if not value.is_integer():
+            raise ParseError(f"field {num:02d}: {text!r} is not an integer")
+        return int(value)
+    return value
+
+
+def _sensor_clock(date: str | None, time: str | None) -> int | None:
+    if not date or not time:
+        return None
+    try:
+        t = dt.datetime.strptime(f"{date} {time}", "%d.%m.%Y %H:%M:%S").replace(tzinfo=dt.UTC)
+    except ValueError:
+        return None
+    return int(t.timestamp()) * 1_000_000_000
+
+
+DRIVER = DriverSpec(
+    name=NAME,
+    make_framer=make_framer,
+    parse=parse,
+    serial=SerialDefaults(baudrate=19200, bytesize=8, parity="N", stopbits=1),
+    modes=("automatic", "polled"),
+    poll_command=poll_command,
+    check_options=check_options,
+    description="OTT Parsivel2: CS/PA answers and ';'-separated user telegrams",
+)
