@@ -37,10 +37,12 @@ from hos.overlay import draw_overlay
 from hos.params import DetectorParams
 
 from . import sdnotify
+from .calibration import CalibrationParams, OnlineCalibration, load_calibration_file
 from .capture import CaptureThread
-from .config import CameraConfig, Config, RecordingConfig, default_recording_dir
+from .config import CameraConfig, Config, RecordingConfig, default_recording_dir, state_dir
 from .detection import detect_frames
 from .fusion import CameraWindow, fuse
+from .instruments import InstrumentHub
 from .messages import frame_message, histogram_message, schema_for, stamp
 from .publisher import Publisher, ZenohPublisher, zenoh_config
 from .recorder import (
@@ -167,13 +169,14 @@ class CameraPipeline:
         stop: threading.Event,
         recorder: ResultRecorder | None,
         opener: Callable[[], FrameSource] | None = None,
+        smoothing_s: float = 60.0,
     ):
         self.camera = camera
         self.params = params
         self.site = site
         self.stop_event = stop
         self.results = recorder
-        self.window = CameraWindow(camera.id)
+        self.window = CameraWindow(camera.id, tau_s=smoothing_s)
         self.capture = CaptureThread(camera.id, opener or (lambda: _open_camera(camera)))
         self.heartbeat = time.monotonic()
         self.detector_state: str | None = None
@@ -376,6 +379,10 @@ class Daemon:
         ]
         check_paths(config)
         self.recording_dir = default_recording_dir(config.recording)
+        self.calibration = _calibration(config)
+        self.instruments = InstrumentHub(
+            config.instrument, site=self.site, emit=self._emit, calibration=self.calibration
+        )
         self.started_monotonic = time.monotonic()
         self.recorder: Recorder | None = None
         self.publisher: Publisher | _NoPublisher = _NoPublisher()
@@ -409,6 +416,8 @@ class Daemon:
             stack.callback(publisher.close)
             publisher.start()
             self.publisher = publisher
+        self.instruments.start()
+        stack.callback(self.instruments.stop)
         for cam, params in zip(self.cameras, self.params, strict=True):
             results = (
                 ResultRecorder(
@@ -495,11 +504,23 @@ class Daemon:
                         window_s=window,
                     )
                     self._emit(f"camera/{p.camera.id}/hos", f"/hos/{p.camera.id}/summary", msg)
+                    if self.config.calibration.online:
+                        self.calibration.add_camera(
+                            t_ns=t_ns,
+                            r_mean=msg["R_mean"],
+                            frames=msg["frames"],
+                            judged=msg["frames_judged"],
+                            rain_frames=msg["rain_frames"],
+                        )
+            self.calibration.tick(t_ns)
             state = fuse(
                 {p.camera.id: p.window.view() for p in self.pipelines},
                 site=self.site,
                 t_ns=t_ns,
                 stale_s=STALE_S,
+                instruments=self.instruments.views(),
+                camera_rate=self.calibration.rate_mm_h,
+                calibration=self.calibration.quality(t_ns),
             )
             changed = state["precipitation"] != precipitation
             if changed or now >= due_state:
@@ -523,8 +544,10 @@ class Daemon:
             if watchdog is not None and self._healthy(now):
                 watchdog.kick()
 
-    def _emit(self, suffix: str, topic: str, message: dict[str, Any]) -> None:
-        self.publisher.put(suffix, message)
+    def _emit(self, suffix: str | None, topic: str, message: dict[str, Any]) -> None:
+        """Publish under ``weather/<site>/<suffix>`` (unless None) and record on ``topic``."""
+        if suffix is not None:
+            self.publisher.put(suffix, message)
         if self.recorder is not None:
             kind = message["schema"].split("/")[0]
             self.recorder.write(topic, kind, schema_for(kind), message, t_ns=message["t_ns"])
@@ -567,8 +590,21 @@ class Daemon:
             cameras={p.camera.id: p.stats() for p in self.pipelines},
             recorder=recorder,
             zenoh=zenoh_stats,
+            instruments=self.instruments.stats(),
+            calibration=self.calibration.quality(t_ns),
             pid=os.getpid(),
         )
+
+
+def _calibration(config: Config) -> OnlineCalibration:
+    """The site calibration: an offline file as the prior, learnt online from instruments."""
+    cc = config.calibration
+    prior = load_calibration_file(cc.file) if cc.file else None
+    params = CalibrationParams(
+        window_s=cc.window_s, min_windows=cc.min_windows, min_rate_mm_h=cc.min_rate_mm_h
+    )
+    path = state_dir(config.site) / "calibration.json" if cc.online else None
+    return OnlineCalibration(params, state_path=path, prior=prior)
 
 
 def _recover_recordings(directory: Path) -> None:
@@ -597,3 +633,5 @@ def check_paths(config: Config) -> None:
     if config.zenoh.enabled:
         zc = config.zenoh
         zenoh_config(mode=zc.mode, connect=zc.connect, listen=zc.listen, config_file=zc.config_file)
+    InstrumentHub(config.instrument, site=config.site.id, emit=lambda *_: None)  # no I/O
+    _calibration(config)

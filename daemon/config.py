@@ -30,8 +30,10 @@ from drivers.errors import ConfigError
 from hos.params import DetectorParams
 
 __all__ = [
+    "CalibrationConfig",
     "CameraConfig",
     "Config",
+    "InstrumentConfig",
     "PublishConfig",
     "RecordingConfig",
     "SiteConfig",
@@ -41,6 +43,7 @@ __all__ = [
     "load_config",
     "load_toml",
     "parse_config",
+    "state_dir",
 ]
 
 #: Site and camera ids become Zenoh key chunks and file names: no '/', '*', '$', '?', '#', space.
@@ -64,6 +67,9 @@ class SiteConfig(_Strict):
 
     #: Names the station in logs, Zenoh keys (``weather/<id>/...``) and MCAP file names.
     id: str = "demo"
+    #: Where state that must survive restarts is kept (the calibration); default
+    #: ``$STATE_DIRECTORY`` under systemd, else ``state`` in the working directory.
+    state_dir: str | None = None
 
     _id = field_validator("id")(_check_id)
 
@@ -104,6 +110,67 @@ class CameraConfig(_Strict):
         if (self.width is None) != (self.height is None):
             raise ValueError("width and height go together: give both or neither")
         return self
+
+
+class InstrumentConfig(_Strict):
+    """``[[instrument]]``: one serial instrument."""
+
+    id: str
+    #: ``vaisala-pwd``, ``ott-parsivel``, ``thies-lnm``, ``lambrecht-raine``,
+    #: ``tipping-bucket``, ``ascii-regex``.
+    driver: str
+    #: A device path (``/dev/ttyUSB0``) or a pyserial URL (``socket://192.0.2.5:4001``).
+    port: str
+    #: Serial settings; default: the instrument's factory settings.
+    baudrate: Annotated[int, Field(gt=0)] | None = None
+    bytesize: Literal[5, 6, 7, 8] | None = None
+    parity: Literal["N", "E", "O", "M", "S"] | None = None
+    stopbits: Literal[1, 1.5, 2] | None = None
+    #: ``automatic`` (the instrument sends by itself) or ``polled`` (we ask every interval).
+    mode: Literal["automatic", "polled"] = "automatic"
+    poll_interval_s: Annotated[float, Field(gt=0)] = 60.0
+    #: ``present_weather`` (knows the type) or ``gauge``; default from the driver.
+    kind: Literal["present_weather", "gauge"] | None = None
+    #: A reading older than this cannot judge; default 3 x the interval, at least 180 s.
+    stale_s: Annotated[float, Field(gt=0)] | None = None
+    #: Reopen the port when nothing at all arrives for this long (a serial-to-Ethernet
+    #: converter that vanished without closing the connection); default: never.
+    idle_timeout_s: Annotated[float, Field(gt=0)] | None = None
+    #: Per-driver options (see docs/instruments.md).
+    options: dict[str, Any] = Field(default_factory=dict)
+
+    _id = field_validator("id")(_check_id)
+
+    def serial_settings(self) -> dict[str, Any]:
+        return {
+            k: v
+            for k, v in (
+                ("baudrate", self.baudrate),
+                ("bytesize", self.bytesize),
+                ("parity", self.parity),
+                ("stopbits", self.stopbits),
+            )
+            if v is not None
+        }
+
+
+class CalibrationConfig(_Strict):
+    """``[calibration]``: R into mm/h (docs/instruments.md, "Calibration")."""
+
+    #: Learn the calibration online from the instruments' rain rates.
+    online: bool = True
+    #: A calibration file written by ``weatherd calibrate`` (its ``[calibration]`` table):
+    #: used until (and as the prior of) the online fit.
+    file: str | None = None
+    #: Aggregation window of camera R against the instruments' rate.
+    window_s: Annotated[float, Field(gt=0)] = 900.0
+    #: Accepted windows before camera-only mm/h is published.
+    min_windows: Annotated[int, Field(ge=1)] = 4
+    #: Windows with less rain than this at the gauge are not measurements.
+    min_rate_mm_h: Annotated[float, Field(ge=0)] = 0.2
+    #: Time constant of the running mean of R behind camera-only mm/h and ``camera_R``
+    #: (an instrument's intensity is typically a 1-minute mean).
+    rate_smoothing_s: Annotated[float, Field(gt=0)] = 60.0
 
 
 class ZenohConfig(_Strict):
@@ -168,17 +235,20 @@ class Config(_Strict):
     site: SiteConfig = Field(default_factory=SiteConfig)
     camera: list[CameraConfig] = Field(default_factory=list)
     detector: dict[str, dict[str, Any]] = Field(default_factory=dict)
+    instrument: list[InstrumentConfig] = Field(default_factory=list)
+    calibration: CalibrationConfig = Field(default_factory=CalibrationConfig)
     zenoh: ZenohConfig = Field(default_factory=ZenohConfig)
     recording: RecordingConfig = Field(default_factory=RecordingConfig)
     publish: PublishConfig = Field(default_factory=PublishConfig)
 
     @model_validator(mode="after")
-    def _unique_cameras(self) -> Config:
-        seen: set[str] = set()
-        for cam in self.camera:
-            if cam.id in seen:
-                raise ValueError(f"camera id {cam.id!r} is used twice")
-            seen.add(cam.id)
+    def _unique_ids(self) -> Config:
+        for what, items in (("camera", self.camera), ("instrument", self.instrument)):
+            seen: set[str] = set()
+            for item in items:
+                if item.id in seen:
+                    raise ValueError(f"{what} id {item.id!r} is used twice")
+                seen.add(item.id)
         return self
 
     def camera_params(self, index: int) -> DetectorParams:
@@ -241,6 +311,14 @@ def default_recording_dir(config: RecordingConfig) -> Path:
         return Path(config.dir)
     state = os.environ.get("STATE_DIRECTORY", "").split(":")[0]
     return Path(state, "recordings") if state else Path("recordings")
+
+
+def state_dir(site: SiteConfig) -> Path:
+    """Where state that survives restarts lives: configured, systemd's, or ``./state``."""
+    if site.state_dir:
+        return Path(site.state_dir)
+    state = os.environ.get("STATE_DIRECTORY", "").split(":")[0]
+    return Path(state) if state else Path("state")
 
 
 def _first_error(exc: pydantic.ValidationError) -> str:

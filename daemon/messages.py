@@ -42,7 +42,15 @@ __all__ = [
 ]
 
 #: Message types and the MCAP schema names they are recorded under.
-SCHEMAS = ("weather.state", "weather.camera", "weather.status", "hos.frame", "hos.histogram")
+SCHEMAS = (
+    "weather.state",
+    "weather.camera",
+    "weather.status",
+    "hos.frame",
+    "hos.histogram",
+    "instrument.reading",
+    "instrument.raw",
+)
 VERSION = 1
 
 

@@ -10,7 +10,7 @@ import jsonschema
 import numpy as np
 import pytest
 
-from daemon.fusion import OFFLINE, CameraView, CameraWindow, fuse
+from daemon.fusion import OFFLINE, CameraView, CameraWindow, InstrumentView, fuse, wawa_type
 from daemon.messages import SCHEMAS, frame_message, histogram_message, iso_utc, schema_for
 from hos.result import FrameResult, MixtureFit
 
@@ -72,7 +72,7 @@ def test_fusion_rule(views: dict[str, CameraView], expected: bool | None) -> Non
     validate(state)
     assert state["precipitation"] is expected
     if expected is None:
-        assert state["reason"].startswith("no camera can judge")
+        assert state["reason"].startswith("no source can judge")
         assert state["camera_R"] is None
         assert state["precipitation_type"] is None
     elif expected:
@@ -129,3 +129,100 @@ def test_a_failed_fit_gives_nulls() -> None:
     hist = histogram_message(result, site="s1", camera="c", t_ns=T0)
     validate(hist)
     assert hist["pi"] is None and hist["mu_deg"] is None
+
+
+def _inst(kind: str = "gauge", *, age_s: float = 10.0, **kw) -> InstrumentView:
+    base = {"driver": "vaisala-pwd" if kind == "present_weather" else "tipping-bucket"}
+    return InstrumentView(kind=kind, connected=True, t_ns=T0 - int(age_s * 1e9), **(base | kw))
+
+
+def test_a_present_weather_sensor_gives_type_rate_wawa_and_visibility() -> None:
+    pwd = _inst(
+        "present_weather",
+        precipitation=True,
+        rain_rate_mm_h=0.6,
+        wawa=71,
+        metar="-SN",
+        visibility_m=2400.0,
+    )
+    state = fuse({"a": _view(True)}, site="s1", t_ns=T0, instruments={"pwd": pwd})
+    validate(state)
+    assert state["precipitation"] is True
+    assert state["precipitation_type"] == "snow"
+    assert state["rain_rate_mm_h"] == pytest.approx(0.6)
+    assert state["rain_rate_source"] == "sensor"
+    assert state["intensity_class"] == "light"
+    assert (state["wawa"], state["metar"], state["visibility_m"]) == (71, "-SN", 2400.0)
+    assert state["sources"] == ["camera/a", "instrument/pwd"]
+
+
+def test_a_dark_camera_and_a_gauge() -> None:
+    gauge = _inst(precipitation=True, rain_rate_mm_h=12.0)
+    state = fuse({"a": _view(False, "dark")}, site="s1", t_ns=T0, instruments={"g": gauge})
+    validate(state)
+    assert state["precipitation"] is True
+    assert (state["rain_rate_source"], state["intensity_class"]) == ("gauge", "heavy")
+    assert state["precipitation_type"] == "unknown"
+    assert state["wawa"] == 42 and state["metar"] == "+UP"
+
+
+def test_a_faulty_or_stale_instrument_is_left_out() -> None:
+    blocked = _inst(precipitation=False, rain_rate_mm_h=0.0, fault=True, status="blocked")
+    stale = _inst(precipitation=False, rain_rate_mm_h=0.0, age_s=3600)
+    state = fuse(
+        {"a": _view(True)},
+        site="s1",
+        t_ns=T0,
+        instruments={"g1": blocked, "g2": stale},
+        camera_rate=lambda r: None if r is None else 0.002 * r,
+    )
+    validate(state)
+    assert state["precipitation"] is True
+    assert state["rain_rate_source"] == "camera"
+    assert state["rain_rate_mm_h"] == pytest.approx(0.1)
+    assert state["instruments"]["g1"]["state"].startswith("fault")
+    assert state["instruments"]["g2"]["state"] == "stale"
+
+
+def test_the_sensor_overrules_a_camera_alone() -> None:
+    pwd = _inst("present_weather", precipitation=False, rain_rate_mm_h=0.0, wawa=0)
+    state = fuse({"a": _view(True)}, site="s1", t_ns=T0, instruments={"pwd": pwd})
+    validate(state)
+    assert state["precipitation"] is False
+    assert state["disagreement"]
+    assert state["rain_rate_mm_h"] == 0.0 and state["wawa"] == 0
+
+
+def test_calibrated_camera_rate_when_no_instrument() -> None:
+    state = fuse(
+        {"a": _view(True, R=2000.0)},
+        site="s1",
+        t_ns=T0,
+        camera_rate=lambda r: None if r is None else 0.003 * r,
+    )
+    validate(state)
+    assert state["rain_rate_mm_h"] == pytest.approx(6.0)
+    assert state["rain_rate_source"] == "camera"
+    assert state["intensity_class"] == "moderate"
+    assert (state["wawa"], state["metar"]) == (41, "UP")
+
+
+@pytest.mark.parametrize(
+    ("wawa", "kind"),
+    [
+        (0, None),
+        (10, None),
+        (41, "unknown"),
+        (51, "drizzle"),
+        (63, "rain"),
+        (68, "mixed"),
+        (73, "snow"),
+        (75, "ice_pellets"),
+        (81, "rain"),
+        (86, "snow"),
+        (89, "hail"),
+        (91, None),
+    ],
+)
+def test_wawa_types(wawa: int, kind: str | None) -> None:
+    assert wawa_type(wawa) == kind
