@@ -253,6 +253,38 @@ def _instruments_decode(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _reference(args: argparse.Namespace) -> int:
+    """``weatherd reference FILE [--station ID]``: station data as JSON lines (contract)."""
+    from daemon.offline.reference import load_reference, reference_json
+
+    data = load_reference(
+        args.file,
+        station=args.station,
+        fmt=args.format,
+        tz=args.tz,
+        interval_s=args.interval,
+        month=args.month,
+    )
+    for interval in data.intervals:
+        sys.stdout.write(json.dumps(reference_json(interval), separators=(",", ":")) + "\n")
+    sys.stdout.flush()
+    st = data.stats
+    notes = [
+        f"{v} {k.replace('_', ' ')}"
+        for k, v in dataclasses.asdict(st).items()
+        if isinstance(v, int)
+        and not isinstance(v, bool)
+        and v
+        and k not in ("rows", "first_malformed_line")
+    ]
+    print(
+        f"weatherd: {args.file}: {data.fmt}, {len(data.intervals)} intervals"
+        + "".join(f"; {n}" for n in notes),
+        file=sys.stderr,
+    )
+    return EXIT_OK
+
+
 def _check_config(args: argparse.Namespace) -> int:
     """``weatherd check-config PATH``: validate, print a one-line summary, exit 0 or 2."""
     from daemon.app import check_paths
@@ -470,6 +502,26 @@ def _parser() -> argparse.ArgumentParser:
         help="a driver option (TOML value), e.g. --option mm_per_tip=0.1",
     )
     decode.set_defaults(handler=_instruments_decode)
+
+    reference = commands.add_parser(
+        "reference",
+        parents=[common],
+        help="station data (Météo-France, CSV, METAR, a gauge in MCAP) as JSON lines",
+        description="Parse a station's reference file: one JSON line per interval, "
+        '{"start", "end", "precip_mm", "station"} (times in UTC, intervals [start, end)).',
+    )
+    reference.add_argument("file", metavar="FILE")
+    reference.add_argument("--station", metavar="ID", help="keep only this station")
+    reference.add_argument(
+        "--format",
+        metavar="FMT",
+        help="force the format: mf-hourly, mf-6min, mf-commande, mf-obs-json, csv, metar, "
+        "mcap-gauge (default: detected)",
+    )
+    reference.add_argument("--tz", default="UTC", help="time zone of naive times (default UTC)")
+    reference.add_argument("--interval", type=float, metavar="S", help="interval length, s")
+    reference.add_argument("--month", metavar="YYYY-MM", help="for METAR reports without date")
+    reference.set_defaults(handler=_reference)
 
     recover = commands.add_parser(
         "recover",
