@@ -285,6 +285,65 @@ def _reference(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _report_path(args: argparse.Namespace) -> str | None:
+    """--report, else report.html in the --plots folder."""
+    if args.report:
+        return args.report
+    return os.path.join(args.plots, "report.html") if args.plots else None
+
+
+def _reference_options(args: argparse.Namespace) -> dict[str, Any]:
+    options = {"fmt": args.format, "tz": args.tz, "interval_s": args.interval, "month": args.month}
+    return {k: v for k, v in options.items() if v is not None and not (k == "tz" and v == "UTC")}
+
+
+def _calibrate(args: argparse.Namespace) -> int:
+    """``weatherd calibrate``: fit R -> mm/h; ends with one JSON line (contract)."""
+    from daemon.offline.calibrate import calibrate
+
+    result = calibrate(
+        args.mcap,
+        args.reference,
+        station=args.station,
+        camera=args.camera,
+        model=args.model,
+        plots_dir=args.plots,
+        report=_report_path(args),
+        out=args.out,
+        threshold_mm=args.threshold_mm,
+        reference_options=_reference_options(args),
+        progress=None if not args.no_progress else False,
+    )
+    print(json.dumps(_as_json(result), separators=(",", ":"), allow_nan=False))
+    return EXIT_OK
+
+
+def _compare(args: argparse.Namespace) -> int:
+    """``weatherd compare``: the camera's presence scores against station data."""
+    from daemon.offline.compare import compare
+
+    result = compare(
+        args.mcap,
+        args.reference,
+        station=args.station,
+        camera=args.camera,
+        threshold_mm=args.threshold_mm,
+        camera_fraction=args.camera_fraction,
+        plots_dir=args.plots,
+        report=_report_path(args),
+        reference_options=_reference_options(args),
+        progress=None if not args.no_progress else False,
+    )
+    if not args.full:
+        result = {k: v for k, v in result.items() if k != "table"}
+    print(json.dumps(_as_json(result), separators=(",", ":"), allow_nan=False))
+    c = result.get("confusion") or {}
+    if c:
+        scores = " ".join(f"{k.upper()} {c.get(k)}" for k in ("tp", "fp", "tn", "fn", "tpr", "fpr"))
+        print(f"weatherd: {scores} accuracy {c.get('accuracy')}", file=sys.stderr)
+    return EXIT_OK
+
+
 def _check_config(args: argparse.Namespace) -> int:
     """``weatherd check-config PATH``: validate, print a one-line summary, exit 0 or 2."""
     from daemon.app import check_paths
@@ -522,6 +581,59 @@ def _parser() -> argparse.ArgumentParser:
     reference.add_argument("--interval", type=float, metavar="S", help="interval length, s")
     reference.add_argument("--month", metavar="YYYY-MM", help="for METAR reports without date")
     reference.set_defaults(handler=_reference)
+
+    offline = argparse.ArgumentParser(add_help=False)
+    offline.add_argument(
+        "--mcap", nargs="+", required=True, metavar="PATH", help="MCAP files or directories"
+    )
+    offline.add_argument("--reference", required=True, metavar="FILE", help="station data")
+    offline.add_argument("--station", metavar="ID", help="the station, in a multi-station file")
+    offline.add_argument("--camera", metavar="ID", help="the camera, when the logs hold several")
+    offline.add_argument("--plots", metavar="DIR", help="write PNG plots and report.html here")
+    offline.add_argument("--report", metavar="FILE.html", help="write the HTML report here")
+    offline.add_argument(
+        "--threshold-mm",
+        type=float,
+        default=0.1,
+        metavar="MM",
+        help="reference amount from which an interval is wet (default 0.1)",
+    )
+    offline.add_argument("--format", metavar="FMT", help="force the reference format")
+    offline.add_argument("--tz", default="UTC", help="time zone of naive reference times")
+    offline.add_argument("--interval", type=float, metavar="S", help="reference interval, s")
+    offline.add_argument("--month", metavar="YYYY-MM", help="for METAR reports without date")
+    offline.add_argument("--no-progress", action="store_true", help="no progress bar")
+
+    calibrate = commands.add_parser(
+        "calibrate",
+        parents=[common, offline],
+        help="fit the site calibration of R -> mm/h against station data",
+        description="Fit mm/h against the camera's R over each reference interval (linear "
+        "through the origin and a power law, robust, with bootstrap confidence intervals), "
+        "write the calibration file the daemon loads, and print one JSON line.",
+    )
+    calibrate.add_argument(
+        "--out", default="calibration.toml", metavar="FILE", help="default calibration.toml"
+    )
+    calibrate.add_argument("--model", choices=("linear", "power"), help="default: the better")
+    calibrate.set_defaults(handler=_calibrate)
+
+    compare = commands.add_parser(
+        "compare",
+        parents=[common, offline],
+        help="score the camera's precipitation detection against station data",
+        description="Presence confusion matrix per reference interval (TP, FP, TN, FN, TPR, "
+        "FPR, accuracy) and ROC curves over Pi_rain and the GoF distance; one JSON line.",
+    )
+    compare.add_argument(
+        "--camera-fraction",
+        type=float,
+        default=0.1,
+        metavar="F",
+        help="share of judged frames with rain from which the camera says wet (default 0.1)",
+    )
+    compare.add_argument("--full", action="store_true", help="include the per-interval table")
+    compare.set_defaults(handler=_compare)
 
     recover = commands.add_parser(
         "recover",

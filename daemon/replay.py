@@ -90,11 +90,19 @@ def replay(
     if fps is not None and not fps > 0:
         raise InputError(f"--fps must be > 0, got {fps}")
     out = Path(out)
+    for path in videos:  # every input checked before the output is created
+        if not Path(path).exists():
+            raise InputError(f"{path}: no such file or directory")
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        mcap = McapFile(out)
+    except OSError as exc:
+        raise InputError(f"{out}: cannot write ({exc.strerror or exc})") from None
     frames = rain = skipped = 0
     first_t: int | None = None
     last_t: int | None = None
     next_start = start_ns
-    with McapFile(out) as mcap:
+    with mcap:
         results = ResultRecorder(mcap, site=site, camera=camera, params=params, config=recording)
         window = CameraWindow(camera)
         for path in videos:
