@@ -40,7 +40,7 @@ from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading
+from .base import DriverSpec, Frame, ParseError, Reading, with_defaults
 from .framing import LineFramer, is_blank
 
 __all__ = ["DRIVER", "UNITS", "TerminatorFramer", "check_options", "make_framer", "parse"]
@@ -99,10 +99,7 @@ class _Field:
 
 def check_options(options: dict[str, Any]) -> dict[str, Any]:
     """``options`` with defaults filled in; ConfigError naming the key when one is wrong."""
-    unknown = sorted(set(options) - set(DEFAULTS))
-    if unknown:
-        raise ConfigError(f"options.{unknown[0]}: unknown option for {NAME}")
-    out = {**DEFAULTS, **options}
+    out = with_defaults(options, DEFAULTS, NAME)
     if out["time_format"] is not None and not isinstance(out["time_format"], str):
         raise ConfigError("options.time_format: expected a strptime format string")
     missing = out["missing"]

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, fields
 from typing import Any, Protocol
 
-from drivers.errors import WeatherdError
+from drivers.errors import ConfigError, WeatherdError
 
 __all__ = [
     "DriverSpec",
@@ -36,6 +36,7 @@ __all__ = [
     "Reading",
     "SerialDefaults",
     "iso_utc",
+    "with_defaults",
 ]
 
 
@@ -129,6 +130,14 @@ class Reading:
             out["t_ns"] = int(self.t_ns)
         out.update({k: _clean(v) for k, v in self.extra.items()})
         return out
+
+
+def with_defaults(options: dict[str, Any], defaults: dict[str, Any], driver: str) -> dict[str, Any]:
+    """``options`` over ``defaults``; an unknown key is a ConfigError naming it."""
+    unknown = sorted(set(options) - set(defaults))
+    if unknown:
+        raise ConfigError(f"options.{unknown[0]}: unknown option for {driver}")
+    return {**defaults, **options}
 
 
 def _clean(value: Any) -> Any:

@@ -50,7 +50,7 @@ from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults
+from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
 from .framing import LineFramer
 
 __all__ = ["DRIVER", "check_options", "checksum", "make_framer", "parse", "poll_command"]
@@ -78,10 +78,7 @@ _TELEGRAM = re.compile(rb"\x02?t(?P<n>[23]):(?P<body>[^*]*)\*(?P<cs>[0-9A-Fa-f]{
 
 def check_options(options: dict[str, Any]) -> dict[str, Any]:
     """``options`` with defaults filled in; ConfigError naming the key when invalid."""
-    unknown = sorted(set(options) - set(DEFAULTS))
-    if unknown:
-        raise ConfigError(f"options.{unknown[0]}: unknown option for {NAME}")
-    out = {**DEFAULTS, **options}
+    out = with_defaults(options, DEFAULTS, NAME)
     try:
         zoneinfo.ZoneInfo(str(out["timezone"]))
     except (zoneinfo.ZoneInfoNotFoundError, ValueError) as exc:

@@ -47,7 +47,7 @@ from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults
+from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
 from .framing import PREFIX_YMDHMS, LineFramer, is_blank
 
 __all__ = ["DEFAULT_FIELDS", "DRIVER", "ParsivelFramer", "check_options", "parse"]
@@ -113,10 +113,7 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
     logger's), ``separator`` (one character, ``;``), ``logger_prefix`` (bool: lines may
     start with a ``YYYYMMDDhhmmss`` timestamp).
     """
-    unknown = sorted(set(options) - set(DEFAULTS))
-    if unknown:
-        raise ConfigError(f"options.{unknown[0]}: unknown option for {NAME}")
-    out = {**DEFAULTS, **options}
+    out = with_defaults(options, DEFAULTS, NAME)
     fields = out["fields"]
     if isinstance(fields, str | bytes) or not isinstance(fields, Sequence) or not fields:
         raise ConfigError("options.fields: expected a non-empty list of value numbers")

@@ -30,7 +30,7 @@ from drivers.errors import ConfigError
 
 from .base import DriverSpec, Frame, Framer, ParseError, Reading
 
-__all__ = ["InstrumentReader", "OnFrame"]
+__all__ = ["InstrumentReader", "OnFrame", "ReaderBase"]
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +41,50 @@ _SERIAL_KEYS = ("baudrate", "bytesize", "parity", "stopbits")
 _PORT_ERRORS = (SerialException, OSError, ValueError)
 
 
-class InstrumentReader:
+class ReaderBase:
+    """What every reader thread shares: its state with one log line per change, the last
+    error, and the ``on_frame`` callback whose exceptions are logged, never fatal."""
+
+    def __init__(self, instrument_id: str, on_frame: OnFrame | None) -> None:
+        self.instrument_id = instrument_id
+        self._on_frame = on_frame
+        self._lock = threading.Lock()
+        self._state = "stopped"
+        self._last_error: str | None = None
+
+    def _opened_text(self) -> str:
+        """What the log says when the port opens."""
+        raise NotImplementedError
+
+    def _deliver(self, frame: Frame, reading: Reading | None, error: str | None) -> None:
+        if self._on_frame is not None:
+            try:
+                self._on_frame(frame, reading, error)
+            except Exception:
+                log.exception("instrument %s: on_frame callback failed", self.instrument_id)
+
+    def _failed(self, error: str) -> None:
+        with self._lock:
+            self._last_error = error
+            changed = self._state != "reconnecting"
+            self._state = "reconnecting"
+        if changed:
+            log.warning("instrument %s: %s; reopening with backoff", self.instrument_id, error)
+        else:
+            log.debug("instrument %s: %s", self.instrument_id, error)
+
+    def _set_state(self, state: str) -> None:
+        with self._lock:
+            if self._state == state:
+                return
+            self._state = state
+        if state == "ok":
+            log.info("instrument %s: %s", self.instrument_id, self._opened_text())
+        else:
+            log.info("instrument %s: %s", self.instrument_id, state)
+
+
+class InstrumentReader(ReaderBase):
     """Reads one instrument on one serial port in a background thread.
 
     Parameters
@@ -94,7 +137,7 @@ class InstrumentReader:
         unknown = sorted(set(serial or {}) - set(_SERIAL_KEYS))
         if unknown:
             raise ConfigError(f"serial.{unknown[0]}: unknown serial setting")
-        self.instrument_id = instrument_id
+        super().__init__(instrument_id, on_frame)
         self.spec = spec
         self.port = port
         self.mode = mode
@@ -107,19 +150,15 @@ class InstrumentReader:
             raise ConfigError(f"serial: {exc}") from None
         poll = spec.poll_command
         self._poll = poll(self.options) if mode == "polled" and poll is not None else None
-        self._on_frame = on_frame
         self._read_timeout_s = float(read_timeout_s)
         self._idle_timeout_s = idle_timeout_s
         self._backoff_initial_s = float(backoff_initial_s)
         self._backoff_max_s = float(backoff_max_s)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._lock = threading.Lock()
-        self._state = "stopped"
         self._frames = self._readings = self._bad_frames = self._reconnects = 0
         self._garbage_done = 0  # garbage of the framers of closed connections
         self._framer: Framer | None = None
-        self._last_error: str | None = None
         self._last_reason: str | None = None
         self._last_reading_mono: float | None = None
         self._got_bytes = False
@@ -257,31 +296,10 @@ class InstrumentReader:
         if error is not None and error != self._last_reason:
             log.warning("instrument %s: bad frame: %s", self.instrument_id, error)
             self._last_reason = error
-        if self._on_frame is not None:
-            try:
-                self._on_frame(frame, reading, error)
-            except Exception:
-                log.exception("instrument %s: on_frame callback failed", self.instrument_id)
+        self._deliver(frame, reading, error)
 
-    def _failed(self, error: str) -> None:
-        with self._lock:
-            self._last_error = error
-            changed = self._state != "reconnecting"
-            self._state = "reconnecting"
-        if changed:
-            log.warning("instrument %s: %s; reopening with backoff", self.instrument_id, error)
-        else:
-            log.debug("instrument %s: %s", self.instrument_id, error)
-
-    def _set_state(self, state: str) -> None:
-        with self._lock:
-            if self._state == state:
-                return
-            self._state = state
-        if state == "ok":
-            log.info("instrument %s: %s open (%s)", self.instrument_id, self.port, self.mode)
-        else:
-            log.info("instrument %s: %s", self.instrument_id, state)
+    def _opened_text(self) -> str:
+        return f"{self.port} open ({self.mode})"
 
 
 def _close(port: SerialBase) -> None:

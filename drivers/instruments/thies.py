@@ -58,7 +58,7 @@ from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults
+from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
 from .framing import DelimitedFramer
 
 __all__ = ["DRIVER", "check_options", "checksum", "make_framer", "parse", "poll_command"]
@@ -108,10 +108,7 @@ _TEXT = re.compile(rb"[\x02\x03\r\n\x20-\x7e]*")
 
 def check_options(options: dict[str, Any]) -> dict[str, Any]:
     """``options`` with defaults filled in; ConfigError naming the key when invalid."""
-    unknown = sorted(set(options) - set(DEFAULTS))
-    if unknown:
-        raise ConfigError(f"options.{unknown[0]}: unknown option for {NAME}")
-    out = {**DEFAULTS, **options}
+    out = with_defaults(options, DEFAULTS, NAME)
     for key, low, high in (("device_id", 0, 99), ("telegram", 1, 99)):
         value = out[key]
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:

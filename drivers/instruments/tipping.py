@@ -52,6 +52,7 @@ from typing import Any
 from drivers.errors import ConfigError
 
 from .base import DriverSpec, Frame, ParseError, Reading
+from .reader import OnFrame, ReaderBase
 
 __all__ = [
     "DRIVER",
@@ -364,11 +365,8 @@ class TipCaptureFramer:
 
 # --- the live reader -------------------------------------------------------------------------
 
-#: ``on_frame(frame, reading or None, parse error text or None)``, as ``reader.OnFrame``.
-OnFrame = Callable[[Frame, Reading | None, str | None], None]
 
-
-class TippingBucketReader:
+class TippingBucketReader(ReaderBase):
     """Polls a modem-status line of a serial port and reports tips per interval.
 
     The same shape as :class:`drivers.instruments.reader.InstrumentReader`: ``start()``,
@@ -400,26 +398,22 @@ class TippingBucketReader:
         backoff_max_s: float = 30.0,
         clock_ns: Callable[[], int] = time.time_ns,
     ) -> None:
-        self.instrument_id = instrument_id
+        super().__init__(instrument_id, on_frame)
         self.options = check_options(dict(options or {}))
         self.port = port if isinstance(port, str) else getattr(port, "__name__", "port")
         self._open = _pyserial_opener(port) if isinstance(port, str) else port
         self._attr = LINE_ATTRS[self.options["line"]]
-        self._on_frame = on_frame
         self._clock_ns = clock_ns
         self._backoff = (float(backoff_initial_s), float(backoff_max_s))
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._lock = threading.Lock()
         self._port: Any = None
         self._debouncer = Debouncer(
             debounce_s=self.options["debounce_s"], edge=self.options["edge"]
         )
         self._agg: IntervalAggregator | None = None
         self._total = 0
-        self._state = "stopped"
         self._counts = {"polls": 0, "tips": 0, "readings": 0, "reconnects": 0}
-        self._last_error: str | None = None
         self._last_reading_mono: float | None = None
 
     # -- life cycle ---------------------------------------------------------------------
@@ -532,36 +526,10 @@ class TippingBucketReader:
             with self._lock:
                 self._counts["readings"] += 1
                 self._last_reading_mono = time.monotonic()
-            if self._on_frame is not None:
-                try:
-                    self._on_frame(frame, reading, None)
-                except Exception:
-                    log.exception("instrument %s: on_frame callback failed", self.instrument_id)
+            self._deliver(frame, reading, None)
 
-    def _failed(self, error: str) -> None:
-        with self._lock:
-            self._last_error = error
-            changed = self._state != "reconnecting"
-            self._state = "reconnecting"
-        if changed:
-            log.warning("instrument %s: %s; reopening with backoff", self.instrument_id, error)
-        else:
-            log.debug("instrument %s: %s", self.instrument_id, error)
-
-    def _set_state(self, state: str) -> None:
-        with self._lock:
-            if self._state == state:
-                return
-            self._state = state
-        if state == "ok":
-            log.info(
-                "instrument %s: reading %s on %s",
-                self.instrument_id,
-                self.options["line"].upper(),
-                self.port,
-            )
-        else:
-            log.info("instrument %s: %s", self.instrument_id, state)
+    def _opened_text(self) -> str:
+        return f"reading {self.options['line'].upper()} on {self.port}"
 
 
 def _pyserial_opener(url: str) -> Callable[[], Any]:

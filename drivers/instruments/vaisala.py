@@ -40,7 +40,7 @@ from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults
+from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
 from .framing import PREFIX_DMY_HMS, LineFramer
 
 __all__ = ["DRIVER", "check_options", "make_framer", "parse", "poll_command"]
@@ -71,10 +71,7 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
     Keys: ``unit_id`` (str, 1-2 letters/digits, "1" when unset on the sensor), ``message``
     (2 or 7, the message polled), ``device`` ("PW", or "FD" for an FD12P).
     """
-    unknown = sorted(set(options) - set(DEFAULTS))
-    if unknown:
-        raise ConfigError(f"options.{unknown[0]}: unknown option for {NAME}")
-    out = {**DEFAULTS, **options}
+    out = with_defaults(options, DEFAULTS, NAME)
     if not isinstance(out["unit_id"], str) or not _UNIT_ID.fullmatch(out["unit_id"]):
         raise ConfigError("options.unit_id: expected 1 or 2 letters or digits")
     if out["message"] not in (2, 7) or isinstance(out["message"], bool):
