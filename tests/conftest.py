@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -16,3 +19,15 @@ def shared_fixtures() -> Path:
     if not SHARED_FIXTURES.is_dir():
         pytest.skip("../shared/fixtures is not beside this checkout")
     return SHARED_FIXTURES
+
+
+def run_weatherd(*args: object, timeout: float = 120) -> subprocess.CompletedProcess[str]:
+    """``weatherd ARGS...`` as a subprocess of this checkout, output captured as text."""
+    return subprocess.run(
+        [sys.executable, "-m", "daemon.cli", *map(str, args)],
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )

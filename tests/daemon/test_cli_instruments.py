@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
+
+from tests.conftest import run_weatherd
 
 REPO = Path(__file__).resolve().parents[2]
 CONTRACT = (
@@ -24,14 +24,7 @@ CONTRACT = (
 
 
 def decode(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "daemon.cli", "instruments", "decode", *map(str, args)],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    return run_weatherd("instruments", "decode", *args)
 
 
 @pytest.mark.parametrize(

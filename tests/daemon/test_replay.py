@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import json
-import os
 import subprocess
-import sys
 from collections import Counter
 from pathlib import Path
 
@@ -13,6 +11,7 @@ import pytest
 from mcap.reader import make_reader
 
 from hos.render import Scene, SceneParams, StreakParams, write_video
+from tests.conftest import run_weatherd
 
 from .schemas import validate
 
@@ -38,14 +37,7 @@ def clip(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def weatherd(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "daemon.cli", *map(str, args)],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
+    return run_weatherd(*args)
 
 
 def messages(path: Path) -> list[tuple[str, dict, int]]:

@@ -4,23 +4,16 @@ from __future__ import annotations
 
 import gzip
 import json
-import os
 import subprocess
-import sys
 from pathlib import Path
+
+from tests.conftest import run_weatherd
 
 REPO = Path(__file__).resolve().parents[2]
 
 
 def reference(*args: object) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "daemon.cli", "reference", *map(str, args)],
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    return run_weatherd("reference", *args)
 
 
 def test_hourly_file_with_station_filter(tmp_path: Path) -> None:
