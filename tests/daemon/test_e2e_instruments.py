@@ -199,9 +199,11 @@ def test_instruments_fusion_calibration_cable_pull_and_replug(
                 timeout=60,
             )
             sub.wait_for(
-                lambda m: m["key"] == f"weather/{SITE}/status"
-                and m["json"]["instruments"]["pwd-auto"]["reconnects"] >= 1
-                and m["json"]["instruments"]["pwd-auto"]["state"] == "ok",
+                lambda m: (
+                    m["key"] == f"weather/{SITE}/status"
+                    and m["json"]["instruments"]["pwd-auto"]["reconnects"] >= 1
+                    and m["json"]["instruments"]["pwd-auto"]["state"] == "ok"
+                ),
                 timeout=10,
             )
             assert daemon.stop(signal.SIGTERM) == 0, daemon.stderr()
