@@ -124,7 +124,7 @@ def watch(
                 line = lines.get(timeout=wait_s)
             except queue.Empty:
                 continue
-            out.write(json.dumps(line, ensure_ascii=False) + "\n")
+            out.write(json.dumps(line, ensure_ascii=False, separators=(",", ":")) + "\n")
             out.flush()
             printed += 1
     except KeyboardInterrupt:
