@@ -16,7 +16,7 @@ import numpy as np
 
 from .moments import BlobMoments, blob_moments
 
-__all__ = ["Blobs", "find_blobs", "size_rule", "structure_rule"]
+__all__ = ["Blobs", "find_blobs", "label_candidates", "size_rule", "structure_rule"]
 
 
 @dataclass(frozen=True)
@@ -27,6 +27,7 @@ class Blobs:
     n_labels : number of labels including 0
     xs, ys, pixel_labels : (N,) int, coordinates and label of every candidate pixel
     moments : BlobMoments over the labels
+    index : (N,) intp, flat index ``ys * W + xs`` of every candidate pixel, row-major order
     """
 
     labels: np.ndarray
@@ -35,28 +36,38 @@ class Blobs:
     ys: np.ndarray
     pixel_labels: np.ndarray
     moments: BlobMoments
+    index: np.ndarray
 
 
-def find_blobs(mask: np.ndarray) -> Blobs:
+def label_candidates(mask: np.ndarray) -> tuple[int, np.ndarray]:
+    """``(n_labels, labels)``: the 8-connected components of ``mask`` (uint8, nonzero =
+    candidate), labels (H, W) int32 with 0 for the background (OpenCV's Spaghetti labelling)."""
+    n_labels, labels = cv2.connectedComponentsWithAlgorithm(mask, 8, cv2.CV_32S, cv2.CCL_SPAGHETTI)
+    return n_labels, labels
+
+
+def find_blobs(mask: np.ndarray, *, labelling: tuple[int, np.ndarray] | None = None) -> Blobs:
     """Label the 8-connected components of ``mask`` (uint8, nonzero = candidate).
 
     Only the labels are computed over the whole image (OpenCV's Spaghetti labelling, ~1.5 ms at
     1920x1080); statistics come from the sparse candidate pixels with ``np.bincount``, which is
     several times cheaper than ``connectedComponentsWithStats`` when candidates are few.
+
+    ``labelling``: the result of :func:`label_candidates` on ``mask``, if already computed.
     """
-    n_labels, labels = cv2.connectedComponentsWithAlgorithm(mask, 8, cv2.CV_32S, cv2.CCL_SPAGHETTI)
+    n_labels, labels = label_candidates(mask) if labelling is None else labelling
     points = cv2.findNonZero(mask)
     if points is None:
         empty = np.zeros(0, dtype=np.intp)
         moments = blob_moments(empty, empty, empty, n_labels)
-        return Blobs(labels, n_labels, empty, empty, empty, moments)
+        return Blobs(labels, n_labels, empty, empty, empty, moments, empty)
     points = points.reshape(-1, 2)  # OpenCV 4 returns (N, 1, 2), OpenCV 5 (N, 2)
     xs = points[:, 0]
     ys = points[:, 1]
-    pixel_labels = labels[ys, xs]
-    return Blobs(
-        labels, n_labels, xs, ys, pixel_labels, blob_moments(xs, ys, pixel_labels, n_labels)
-    )
+    index = ys.astype(np.intp) * mask.shape[1] + xs
+    pixel_labels = labels.ravel().take(index)  # a flat take: several times cheaper than [ys, xs]
+    moments = blob_moments(xs, ys, pixel_labels, n_labels)
+    return Blobs(labels, n_labels, xs, ys, pixel_labels, moments, index)
 
 
 def size_rule(area: np.ndarray, *, min_area: float, max_area: float) -> np.ndarray:
@@ -79,10 +90,10 @@ def structure_rule(
     """
     if blobs.xs.size == 0:
         return np.zeros(blobs.n_labels, dtype=bool)
-    per_pixel = rate[blobs.ys, blobs.xs].astype(np.float64)
+    per_pixel = rate.ravel().take(blobs.index)  # float32; bincount sums in float64
     area = blobs.moments.area
     with np.errstate(invalid="ignore", divide="ignore"):
         mean_rate = np.bincount(blobs.pixel_labels, per_pixel, blobs.n_labels) / area
-    structural = np.nan_to_num(mean_rate) > max(floor, ratio * global_rate)
+    structural = mean_rate > max(floor, ratio * global_rate)  # NaN (no pixel) compares False
     structural[0] = False
     return structural

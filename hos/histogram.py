@@ -110,16 +110,21 @@ def _hos_fast(
     # Position on the fine grid whose centre is nearest theta; fine cell j spans bin j // 4.
     pos = np.floor(theta * (n / np.pi)).astype(np.intp) % n
     level = np.rint(np.log(dtheta / lo) / np.log(widths[1] / widths[0])).astype(np.intp)
-    level = np.clip(level, 0, _LEVELS - 1)
+    level = np.minimum(np.maximum(level, 0), _LEVELS - 1)
     table = np.bincount(level * n + pos, weights=weight, minlength=_LEVELS * n)
     table = table.reshape(_LEVELS, n)
     used = np.flatnonzero(table.any(axis=1))
     spectrum = (np.fft.rfft(table[used], axis=1) * kernels[used]).sum(axis=0)
     fine = np.fft.irfft(spectrum, n)
     # The kernel is centred on the start of fine cell `pos`; shift by half a cell so that a
-    # vote lands on the cell's centre, then sum the sub-bins of each bin.
-    fine = 0.5 * (fine + np.roll(fine, 1))
-    return np.maximum(fine.reshape(bins, _SUBBINS).sum(axis=1), 0.0)
+    # vote lands on the cell's centre (the mean of each cell and the one before it, wrapping),
+    # then sum the sub-bins of each bin.
+    before = np.empty_like(fine)
+    before[1:] = fine[:-1]
+    before[0] = fine[-1]
+    before += fine
+    before *= 0.5
+    return np.maximum(before.reshape(bins, _SUBBINS).sum(axis=1), 0.0)
 
 
 def hog_histogram(

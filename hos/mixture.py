@@ -19,6 +19,7 @@ import math
 import numpy as np
 from scipy.special import ndtr
 
+from ._stats import median
 from .angles import axial_mean, bin_centers, wrap_diff
 from .result import MixtureFit
 
@@ -34,9 +35,12 @@ def _shifted_edges(bins: int) -> np.ndarray:
 
 def gaussian_bin_mass(mu: float, sigma: float, bins: int) -> np.ndarray:
     """(bins,) mass of the wrapped normal N(mu, sigma) over each bin of [0, pi); sums to 1."""
-    cdf = ndtr((_shifted_edges(bins) - mu) / sigma).sum(axis=0)
+    z = _shifted_edges(bins) - mu
+    z /= sigma
+    cdf = ndtr(z, out=z).sum(axis=0)
     mass = cdf[1:] - cdf[:-1]
-    return mass / mass.sum()
+    mass /= mass.sum()
+    return mass
 
 
 def mixture_bin_mass(pi: float, mu: float, sigma: float, bins: int) -> np.ndarray:
@@ -55,7 +59,7 @@ def gof_distance(y: np.ndarray, pi: float, mu: float, sigma: float) -> float:
 
 def _initial_guess(theta: np.ndarray, y: np.ndarray) -> tuple[float, float, float] | None:
     """Section 4.2: subtract the median, keep the upper part, take its mean, spread, surface."""
-    upper = np.maximum(y - np.median(y), 0.0)
+    upper = np.maximum(y - median(y), 0.0)
     total = upper.sum()
     if total <= 0.0:
         return None
@@ -70,31 +74,34 @@ def _em_step(
 ) -> tuple[np.ndarray, float]:
     """One EM step (eqs. 24-25) from ``params = (pi, mu, sigma)``; also the log-likelihood of
     ``params`` (computed on the way, for free)."""
-    pi, mu, sigma = params
+    pi, mu, sigma = (float(v) for v in params)
     bins = y.size
-    gauss = gaussian_bin_mass(mu, sigma, bins) * (bins / np.pi)  # density over each bin
-    rain = pi * gauss
+    gauss = gaussian_bin_mass(mu, sigma, bins)
+    gauss *= bins / np.pi  # density over each bin
+    rain = gauss
+    rain *= pi
     total = rain + (1.0 - pi) / np.pi
     loglik = float(y @ np.log(total))
-    w = y * rain / total  # (1 - z_i) y_i, z_i of eq. 24
+    w = y * rain
+    w /= total  # (1 - z_i) y_i, z_i of eq. 24
     sw = float(w.sum())
     if sw <= 1e-12:
         return np.array([0.0, mu, np.pi / 2]), loglik
-    d = wrap_diff(theta, mu)  # eq. 25, with wrapped distances
+    d = theta - mu  # eq. 25, with wrapped distances (wrap_diff, written out)
+    d += np.pi / 2
+    np.mod(d, np.pi, out=d)
+    d -= np.pi / 2
     shift = float(w @ d) / sw
     d -= shift
-    sigma_new = max(math.sqrt(float(w @ (d * d)) / sw), sigma_min)
-    return np.array([sw, float(np.mod(mu + shift, np.pi)), sigma_new]), loglik
+    d *= d
+    sigma_new = max(math.sqrt(float(w @ d) / sw), sigma_min)
+    return np.array([sw, (mu + shift) % math.pi, sigma_new]), loglik
 
 
 def _clamp(params: np.ndarray, sigma_min: float) -> np.ndarray:
-    return np.array(
-        [
-            min(max(params[0], 1e-4), 1.0 - 1e-4),
-            float(np.mod(params[1], np.pi)),
-            min(max(params[2], sigma_min), np.pi),
-        ]
-    )
+    pi, mu, sigma = (float(v) for v in params)
+    pi = min(max(pi, 1e-4), 1.0 - 1e-4)
+    return np.array([pi, mu % math.pi, min(max(sigma, sigma_min), np.pi)])
 
 
 def fit_mixture(
@@ -137,19 +144,23 @@ def fit_mixture(
         return MixtureFit(ok=False, reason="flat histogram")
     x0 = _clamp(np.array(initial), sigma_min)
     steps = 0
+    first: tuple[np.ndarray, float] | None = None  # the EM step from x0, when already made
     if start is not None:
         alternative = _clamp(np.array(start, dtype=np.float64), sigma_min)
-        if _em_step(theta, y, alternative, sigma_min)[1] > _em_step(theta, y, x0, sigma_min)[1]:
-            x0 = alternative
+        from_alternative = _em_step(theta, y, alternative, sigma_min)
+        first = _em_step(theta, y, x0, sigma_min)
+        if from_alternative[1] > first[1]:
+            x0, first = alternative, from_alternative
         steps += 2
     while steps < max_iter:
-        x1, ll0 = _em_step(theta, y, x0, sigma_min)
+        x1, _ = first if first is not None else _em_step(theta, y, x0, sigma_min)
+        first = None
         x2, ll1 = _em_step(theta, y, x1, sigma_min)
         steps += 2
         r = _delta(x1, x0)
-        v = _delta(x2, x1) - r
-        del ll0
-        if float(np.max(np.abs(_delta(x2, x1)))) < tol or x2[0] <= 0.0:
+        step = _delta(x2, x1)
+        v = step - r
+        if max(abs(float(step[0])), abs(float(step[1])), abs(float(step[2]))) < tol or x2[0] <= 0.0:
             x0 = x2
             break
         alpha = -math.sqrt(float(r @ r) / max(float(v @ v), 1e-300))
@@ -178,5 +189,5 @@ def fit_mixture(
 def _delta(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a - b for parameter vectors, the mean's difference wrapped (pi-periodic)."""
     d = a - b
-    d[1] = float(wrap_diff(a[1], b[1]))
+    d[1] = (float(a[1]) - float(b[1]) + math.pi / 2) % math.pi - math.pi / 2  # wrap_diff
     return d

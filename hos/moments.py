@@ -101,4 +101,5 @@ def orientation_uncertainty(
     den = diff * diff + 4.0 * m11 * m11
     with np.errstate(invalid="ignore", divide="ignore"):
         d_theta = dm * num / den
-    return np.clip(np.nan_to_num(d_theta, nan=hi, posinf=hi), lo, hi)
+    d_theta = np.where(np.isfinite(d_theta), d_theta, hi)  # 0/0 and x/0: no orientation
+    return np.minimum(np.maximum(d_theta, lo), hi)

@@ -11,6 +11,13 @@ measurement of 0 and a larger variance (``miss_measurement_var``). In rain most 
 the few misses barely move Pi; when the rain stops, misses pull Pi down within a few dozen
 frames. mu is periodic: the measured mu is unwrapped next to the state before each update and
 the state is wrapped back into [0, pi) after.
+
+With F = H = I and diagonal Q, R and initial P, the covariance stays diagonal for ever (a miss,
+H = [1, 0, 0], keeps it diagonal too): the filter is three independent scalar filters. They are
+written out below as filterpy's ``predict`` and ``update`` (Joseph form) do it, operation for
+operation, in plain floats: a 3x3 :class:`filterpy.kalman.KalmanFilter` costs more per frame
+than the rest of the decision, and importing filterpy imports ``scipy.stats`` (0.4 s of every
+start). ``tests/hos/test_smoothing.py`` proves the two equal, step by step.
 """
 
 from __future__ import annotations
@@ -18,15 +25,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-from filterpy.kalman import KalmanFilter
-
-from .angles import wrap_diff
 from .params import DecisionParams
 
-__all__ = ["ParameterSmoother", "SmoothedState"]
+__all__ = ["ParameterSmoother", "SmoothedState", "kalman_predict", "kalman_update"]
 
-_H_PI = np.array([[1.0, 0.0, 0.0]])
+_TWO_PI = 2.0 * math.pi
 
 
 @dataclass(frozen=True)
@@ -37,8 +40,40 @@ class SmoothedState:
     rain: bool
 
 
+def kalman_predict(x: float, p: float, q: float) -> tuple[float, float]:
+    """Scalar Kalman prediction with F = 1: ``x = F x``, ``P = F P F' + Q``.
+
+    Parameters
+    ----------
+    x, p : state and its variance
+    q : process noise variance
+    """
+    return x, p + q
+
+
+def kalman_update(x: float, p: float, z: float, r: float) -> tuple[float, float]:
+    """Scalar Kalman update with H = 1, covariance in Joseph form (as filterpy writes it).
+
+    Parameters
+    ----------
+    x, p : prior state and variance
+    z : measurement
+    r : measurement noise variance
+
+    Returns
+    -------
+    (x, p), the posterior.
+    """
+    y = z - x  # residual
+    s = p + r  # system uncertainty
+    k = p * (1.0 / s)  # Kalman gain, P H' S^-1
+    x = x + k * y
+    i_kh = 1.0 - k
+    return x, i_kh * p * i_kh + k * r * k  # (I - KH) P (I - KH)' + K R K'
+
+
 class ParameterSmoother:
-    """A thin class over filterpy's KalmanFilter: state x = (Pi, mu, sigma), F = H = I."""
+    """Kalman filter of x = (Pi, mu, sigma), F = H = I, and the decision with hysteresis."""
 
     def __init__(self, params: DecisionParams | None = None) -> None:
         self.params = params or DecisionParams()
@@ -46,39 +81,42 @@ class ParameterSmoother:
 
     def reset(self) -> None:
         p = self.params
-        kf = KalmanFilter(dim_x=3, dim_z=3)
-        kf.x = np.array([[0.0], [math.pi / 2], [math.radians(20.0)]])
-        kf.F = np.eye(3)
-        kf.H = np.eye(3)
+        self._x = [0.0, math.pi / 2, math.radians(20.0)]
         # Start at the steady-state variance of a filter updated every frame (the root of
         # P^2 - Q P - Q R = 0): one early measurement then moves Pi no more than a late one.
         q, r = p.process_var, p.measurement_var
         steady = 0.5 * (q + math.sqrt(q * q + 4.0 * q * r)) - q
-        kf.P = np.diag([steady, 1.0, 1.0])
-        kf.Q = np.eye(3) * p.process_var
-        kf.R = np.eye(3) * p.measurement_var
-        self._kf = kf
+        self._p = [steady, 1.0, 1.0]
         self._rain = False
         self._pending = 0  # consecutive frames whose threshold test disagrees with the verdict
 
     @property
     def state(self) -> SmoothedState:
-        x = self._kf.x[:, 0]
-        return SmoothedState(float(x[0]), float(x[1]), float(x[2]), self._rain)
+        x = self._x
+        return SmoothedState(x[0], x[1], x[2], self._rain)
+
+    @property
+    def variance(self) -> tuple[float, float, float]:
+        """Diagonal of the state covariance P (Pi, mu, sigma)."""
+        return self._p[0], self._p[1], self._p[2]
 
     def update(self, measurement: tuple[float, float, float] | None) -> SmoothedState:
         """Predict, then update with a fitted (Pi, mu, sigma), or with a miss when None."""
-        kf = self._kf
-        kf.predict()
-        if measurement is None:
-            kf.update(np.array([[0.0]]), R=np.array([[self.params.miss_measurement_var]]), H=_H_PI)
+        p = self.params
+        x, var = self._x, self._p
+        for i in range(3):
+            x[i], var[i] = kalman_predict(x[i], var[i], p.process_var)
+        if measurement is None:  # Pi alone, measured 0 with the miss variance
+            x[0], var[0] = kalman_update(x[0], var[0], 0.0, p.miss_measurement_var)
         else:
             pi, mu, sigma = measurement
-            mu_near = kf.x[1, 0] + float(wrap_diff(mu, kf.x[1, 0]))
-            kf.update(np.array([[pi], [mu_near], [sigma]]))
-        kf.x[0, 0] = min(max(kf.x[0, 0], 0.0), 1.0)
-        kf.x[1, 0] = float(np.mod(kf.x[1, 0], np.pi))
-        kf.x[2, 0] = max(kf.x[2, 0], 1e-3)
+            mu_near = x[1] + _wrap(mu - x[1])
+            x[0], var[0] = kalman_update(x[0], var[0], float(pi), p.measurement_var)
+            x[1], var[1] = kalman_update(x[1], var[1], mu_near, p.measurement_var)
+            x[2], var[2] = kalman_update(x[2], var[2], float(sigma), p.measurement_var)
+        x[0] = min(max(x[0], 0.0), 1.0)
+        x[1] = x[1] % math.pi
+        x[2] = max(x[2], 1e-3)
         return self._decide()
 
     def hold(self) -> SmoothedState:
@@ -88,7 +126,7 @@ class ParameterSmoother:
     def _decide(self) -> SmoothedState:
         """Threshold with hysteresis; a new verdict must hold for ``dwell_on/off_frames``."""
         p = self.params
-        pi = self._kf.x[0, 0]
+        pi = self._x[0]
         wants = pi >= p.pi_rain - p.hysteresis if self._rain else pi > p.pi_rain
         if wants == self._rain:
             self._pending = 0
@@ -98,3 +136,8 @@ class ParameterSmoother:
             if self._pending >= dwell:
                 self._rain, self._pending = wants, 0
         return self.state
+
+
+def _wrap(d: float) -> float:
+    """An orientation difference wrapped into [-pi/2, pi/2), as :func:`hos.angles.wrap_diff`."""
+    return (d + math.pi / 2) % math.pi - math.pi / 2

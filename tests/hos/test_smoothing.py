@@ -1,5 +1,6 @@
 import itertools
 import math
+from pathlib import Path
 
 import pytest
 
@@ -71,3 +72,63 @@ def test_a_one_frame_blip_is_not_rain():
     st = s.update((1.0, 1.5, 0.1))
     st = s.update(None)
     assert not st.rain
+
+
+def _filterpy_reference(params: DecisionParams):
+    """The 3x3 filter as the paper writes it, with filterpy's KalmanFilter."""
+    import numpy as np
+    from filterpy.kalman import KalmanFilter
+
+    kf = KalmanFilter(dim_x=3, dim_z=3)
+    kf.x = np.array([[0.0], [math.pi / 2], [math.radians(20.0)]])
+    kf.F = np.eye(3)
+    kf.H = np.eye(3)
+    q, r = params.process_var, params.measurement_var
+    kf.P = np.diag([0.5 * (q + math.sqrt(q * q + 4.0 * q * r)) - q, 1.0, 1.0])
+    kf.Q = np.eye(3) * q
+    kf.R = np.eye(3) * r
+    return kf
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_scalar_filters_equal_filterpy_kalman_filter(seed):
+    """The three scalar filters are filterpy's 3x3 filter (F = H = I), step by step."""
+    import numpy as np
+
+    from hos.angles import wrap_diff
+
+    p = DecisionParams()
+    rng = np.random.default_rng(seed)
+    kf = _filterpy_reference(p)
+    s = ParameterSmoother(p)
+    h_pi = np.array([[1.0, 0.0, 0.0]])
+    for _ in range(300):
+        kf.predict()
+        if rng.random() < 0.3:
+            st = s.update(None)
+            kf.update(np.array([[0.0]]), R=np.array([[p.miss_measurement_var]]), H=h_pi)
+        else:
+            z = (rng.uniform(0, 1), rng.uniform(0, math.pi), rng.uniform(0.01, 0.6))
+            st = s.update(z)
+            mu_near = kf.x[1, 0] + float(wrap_diff(z[1], kf.x[1, 0]))
+            kf.update(np.array([[z[0]], [mu_near], [z[2]]]))
+        kf.x[0, 0] = min(max(kf.x[0, 0], 0.0), 1.0)
+        kf.x[1, 0] = float(np.mod(kf.x[1, 0], np.pi))
+        kf.x[2, 0] = max(kf.x[2, 0], 1e-3)
+        assert (st.pi, st.mu, st.sigma) == pytest.approx(tuple(kf.x[:, 0]), rel=1e-12, abs=1e-15)
+        assert s.variance == pytest.approx(tuple(np.diag(kf.P)), rel=1e-12)
+        assert np.count_nonzero(kf.P - np.diag(np.diag(kf.P))) == 0  # P stays diagonal
+
+
+@pytest.mark.e2e
+def test_importing_the_detector_does_not_import_filterpy():
+    """filterpy imports scipy.stats (0.4 s of every start): the detector does not need it."""
+    import subprocess
+    import sys
+
+    code = "import sys, hos, hos.pipeline; print('filterpy' in sys.modules)"
+    root = str(Path(__file__).resolve().parents[2])
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=root
+    )
+    assert out.stdout.strip() == "False"
