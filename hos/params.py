@@ -138,7 +138,7 @@ class DecisionParams:
     #: Beyond the paper: a fit needs at least this many blobs to be a measurement at all.
     min_blobs: int = 12
     #: Beyond the paper: a fitted Gaussian wider than this is not a streak population.
-    sigma_max: float = math.radians(30.0)
+    sigma_max: float = math.radians(36.0)
     #: Beyond the paper: precipitation falls. A streak population whose mean orientation is
     #: further than ``max_tilt`` from the camera's vertical (``vertical``, 90 degrees for an
     #: upright camera; set it for a rolled one) is traffic, lane markings or vanishing lines.
@@ -172,11 +172,11 @@ class RobustnessParams:
     warmup_frames: int = 60
     #: Time constant (frames) of the per-pixel candidate rate used to find structural noise:
     #: rain lands at random places, edges of a shaking camera or swaying leaves recur in place.
-    persistence_frames: int = 50
+    persistence_frames: int = 100
     #: A blob whose pixels are candidates more often than ``max(persistence_floor,
     #: persistence_ratio * global candidate rate)`` is structural noise, not rain.
-    persistence_floor: float = 0.06
-    persistence_ratio: float = 4.0
+    persistence_floor: float = 0.03
+    persistence_ratio: float = 2.5
     #: Camera offset from its learnt position (pixels at full resolution), measured on an image
     #: reduced to about 240 px wide against a reference that learns over ``reference_frames``.
     #: A frame offset by more than ``motion_frame_px`` carries no rain evidence: its edges are

@@ -103,7 +103,8 @@ class HosDetector:
         self._smoother = ParameterSmoother(self.params.decision)
         self._rate: np.ndarray | None = None
         self._global_rate = 0.0
-        self._frames_analysed = 0
+        self._frames_analysed = 0  # frames in the candidate rate
+        self._rate_frames = 0  # frames analysed since the rate map was (re)made
         self._last_fit: tuple[float, float, float] | None = None
 
     # -- the frame -----------------------------------------------------------------------
@@ -252,7 +253,8 @@ class HosDetector:
             self._rate = np.zeros(candidates.shape, np.float32)
             self._global_rate = 0.0
             self._frames_analysed = 0
-        self._frames_analysed += 1
+            self._rate_frames = 0
+        self._rate_frames += 1
         area_scale = (h / p.segmentation.size_reference_height) ** 2
         min_area = p.segmentation.min_area * area_scale
         max_area = p.segmentation.max_area * area_scale
@@ -267,7 +269,12 @@ class HosDetector:
             floor=rob.persistence_floor,
             ratio=rob.persistence_ratio,
         )
-        self._update_rate(candidates, seg.candidate_fraction)
+        if self._rate_frames > rob.warmup_frames // 2 and (
+            seg.candidate_fraction <= rob.scene_change_fraction
+        ):
+            # Not while the background model is still learning, nor on a frame that changed
+            # as a whole: that foreground says nothing about what recurs in place.
+            self._update_rate(candidates, seg.candidate_fraction)
         sized = size_rule(mom.area, min_area=min_area, max_area=max_area)
         sized[0] = False
         accepted = sized & ~structural
@@ -366,9 +373,13 @@ class HosDetector:
 
     def _update_rate(self, candidates: np.ndarray, fraction: float) -> None:
         """Per-pixel and global candidate rates: running means over ~persistence_frames."""
+        self._frames_analysed += 1
         tau = self.params.robustness.persistence_frames
         alpha = max(1.0 / self._frames_analysed, 1.0 / tau)
-        cv2.accumulateWeighted(candidates, self._rate, alpha / 255.0)
+        # The mask is 0/255: accumulate it as 0/1 so that the rate is a frequency with the
+        # intended time constant (0/255 with alpha/255 made it decay 255 times too slowly, and
+        # every pixel of steady rain became "structural" after ~300 frames).
+        cv2.accumulateWeighted(cv2.bitwise_and(candidates, 1), self._rate, alpha)
         self._global_rate += alpha * (fraction - self._global_rate)
 
     def _merge_correction(

@@ -177,7 +177,13 @@ def test_run_publishes_validated_state_and_records(
             lambda m: m["key"] == f"weather/{SITE}/state" and m["json"]["precipitation"] is True,
             timeout=60,
         )
-        sub.wait_for(lambda m: m["key"] == f"weather/{SITE}/status", timeout=10)
+        sub.wait_for(
+            lambda m: (
+                m["key"] == f"weather/{SITE}/status"
+                and m["json"]["cameras"][CAM]["frames_processed"] > 50
+            ),
+            timeout=20,
+        )
         # The queryable answers with the latest value of each key.
         replies = dict(query(router.endpoint, f"weather/{SITE}/**", timeout=5))
         assert {f"weather/{SITE}/state", f"weather/{SITE}/status"} <= set(replies)

@@ -201,6 +201,23 @@ def test_precipitation_is_detected(name, params, min_tpr):
     assert tpr >= min_tpr, (name, tpr)
 
 
+@pytest.mark.parametrize(
+    "name,params",
+    [
+        ("steady_rain", SceneParams(cars=2, rain=StreakParams())),
+        ("steady_light_rain", SceneParams(cars=2, rain=StreakParams(count=80, brightness=25))),
+        ("steady_snow", SceneParams(cars=2, snow=SnowParams())),
+    ],
+)
+def test_steady_precipitation_is_still_seen_after_a_minute(name, params):
+    """The structure rule must not learn rain itself as structure: a daemon watches for
+    hours. (A unit slip once made the per-pixel rate drift up until, after ~300 frames of
+    steady rain, every streak was "structural" and detection fell to 0 %.)"""
+    res = _run(params, 1000)
+    late = np.mean([r.rain for r, _ in res[700:]])
+    assert late >= 0.95, (name, late)
+
+
 # -- Section 7: intensity ------------------------------------------------------------------------
 def test_intensity_grows_with_rain_density_into_heavy_rain():
     """R = S * Pi (eq. 31) must keep rising when streaks overlap and merge (Fig. 14). 2000
