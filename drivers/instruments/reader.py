@@ -51,6 +51,36 @@ class ReaderBase:
         self._lock = threading.Lock()
         self._state = "stopped"
         self._last_error: str | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> None:
+        """Start the reader thread (once)."""
+        if self._thread is not None:
+            raise RuntimeError(f"{type(self).__name__}.start() called twice")
+        self._before_start()
+        self._set_state("connecting")
+        self._thread = threading.Thread(
+            target=self._run, name=f"instrument-{self.instrument_id}", daemon=True
+        )
+        self._thread.start()
+
+    def stop(self, timeout_s: float = 5.0) -> None:
+        """Stop the thread and close the port; returns within about one read timeout."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout_s)
+        self._after_stop()
+        self._set_state("stopped")
+
+    def _before_start(self) -> None:
+        """Hook: anything to set up before the thread starts."""
+
+    def _after_stop(self) -> None:
+        """Hook: anything to release once the thread has stopped."""
+
+    def _run(self) -> None:
+        raise NotImplementedError
 
     def _opened_text(self) -> str:
         """What the log says when the port opens."""
@@ -154,32 +184,12 @@ class InstrumentReader(ReaderBase):
         self._idle_timeout_s = idle_timeout_s
         self._backoff_initial_s = float(backoff_initial_s)
         self._backoff_max_s = float(backoff_max_s)
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._frames = self._readings = self._bad_frames = self._reconnects = 0
         self._garbage_done = 0  # garbage of the framers of closed connections
         self._framer: Framer | None = None
         self._last_reason: str | None = None
         self._last_reading_mono: float | None = None
         self._got_bytes = False
-
-    # -- life cycle ---------------------------------------------------------------------
-    def start(self) -> None:
-        """Start the reader thread (once)."""
-        if self._thread is not None:
-            raise RuntimeError("InstrumentReader.start() called twice")
-        self._set_state("connecting")
-        self._thread = threading.Thread(
-            target=self._run, name=f"instrument-{self.instrument_id}", daemon=True
-        )
-        self._thread.start()
-
-    def stop(self, timeout_s: float = 5.0) -> None:
-        """Stop the thread and close the port; returns within about one read timeout."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout_s)
-        self._set_state("stopped")
 
     def stats(self) -> dict[str, Any]:
         """Counters and state (a copy): state, frames, readings, bad_frames, garbage_bytes,

@@ -43,7 +43,6 @@ import datetime as dt
 import logging
 import math
 import re
-import threading
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -405,8 +404,6 @@ class TippingBucketReader(ReaderBase):
         self._attr = LINE_ATTRS[self.options["line"]]
         self._clock_ns = clock_ns
         self._backoff = (float(backoff_initial_s), float(backoff_max_s))
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self._port: Any = None
         self._debouncer = Debouncer(
             debounce_s=self.options["debounce_s"], edge=self.options["edge"]
@@ -417,24 +414,11 @@ class TippingBucketReader(ReaderBase):
         self._last_reading_mono: float | None = None
 
     # -- life cycle ---------------------------------------------------------------------
-    def start(self) -> None:
-        """Start the polling thread (once)."""
-        if self._thread is not None:
-            raise RuntimeError("TippingBucketReader.start() called twice")
+    def _before_start(self) -> None:
         self._agg = IntervalAggregator(self.options["report_interval_s"], self._clock_ns())
-        self._set_state("connecting")
-        self._thread = threading.Thread(
-            target=self._run, name=f"instrument-{self.instrument_id}", daemon=True
-        )
-        self._thread.start()
 
-    def stop(self, timeout_s: float = 5.0) -> None:
-        """Stop the thread and close the port."""
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout_s)
+    def _after_stop(self) -> None:
         self._close()
-        self._set_state("stopped")
 
     def stats(self) -> dict[str, Any]:
         """Counters and state (a copy), the keys of ``InstrumentReader.stats()`` plus
