@@ -38,6 +38,9 @@ log = logging.getLogger(__name__)
 
 #: Drivers of instruments that see the drops themselves and know their type.
 _PRESENT_WEATHER = frozenset({"vaisala-pwd", "ott-parsivel", "thies-lnm"})
+#: Where the instruments' accumulation counters wrap (mm): the PWD's water sum 0...99.99, the
+#: Parsivel's and the rain[e]'s four-digit counters.
+_WRAP_AT_MM = {"vaisala-pwd": 100.0, "ott-parsivel": 10000.0, "lambrecht-raine": 10000.0}
 
 
 def driver_kind(cfg: InstrumentConfig) -> str:
@@ -112,7 +115,9 @@ class InstrumentHub:
         self._lock = threading.Lock()
         self._configs = {c.id: c for c in configs}
         self._latest = {c.id: _Latest() for c in configs}
-        self._trackers = {c.id: AccumulationTracker() for c in configs}
+        self._trackers = {
+            c.id: AccumulationTracker(wrap_at_mm=_WRAP_AT_MM.get(c.driver)) for c in configs
+        }
         self._readers: dict[str, Any] = {}
         for i, cfg in enumerate(configs):
             spec = driver_spec(cfg, i)
