@@ -12,7 +12,6 @@ Start-up, in order: recover unfinished MCAP files, open the recorder, start the 
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import logging
 import math
@@ -43,15 +42,14 @@ from .config import CameraConfig, Config, RecordingConfig, default_recording_dir
 from .detection import detect_frames
 from .fusion import CameraWindow, fuse
 from .instruments import InstrumentHub
+from .mcap_repair import recover_directory
 from .messages import frame_message, histogram_message, schema_for, stamp
 from .publisher import Publisher, ZenohPublisher, zenoh_config
 from .recorder import (
     FOXGLOVE_COMPRESSED_IMAGE_SCHEMA,
-    FOXGLOVE_LOG_SCHEMA,
     Recorder,
+    RecorderLogHandler,
     compressed_image,
-    log_message,
-    recover_directory,
 )
 
 __all__ = ["DEMO_CAMERA", "CameraPipeline", "Daemon", "ResultRecorder", "versions"]
@@ -352,18 +350,6 @@ class _NoPublisher:
         pass
 
 
-class _LogToRecorder(logging.Handler):
-    """Log records for the ``/log`` topic, queued here and written by the main loop (a record
-    logged by the recorder itself must not re-enter it)."""
-
-    def __init__(self, maxlen: int = 1000):
-        super().__init__(logging.INFO)
-        self.pending: collections.deque[logging.LogRecord] = collections.deque(maxlen=maxlen)
-
-    def emit(self, record: logging.LogRecord) -> None:
-        self.pending.append(record)
-
-
 class Daemon:
     """The service: build it from a validated :class:`Config`, then :meth:`run` until ``stop``."""
 
@@ -388,7 +374,6 @@ class Daemon:
         self.publisher: Publisher | _NoPublisher = _NoPublisher()
         self.pipelines: list[CameraPipeline] = []
         self._versions = versions()
-        self._log_handler = _LogToRecorder()
 
     # -- life cycle ----------------------------------------------------------------------------
     def run(self) -> int:
@@ -473,8 +458,9 @@ class Daemon:
             fsync_interval_s=rc.fsync_interval_s,
         )
         stack.callback(recorder.close)
-        logging.getLogger().addHandler(self._log_handler)
-        stack.callback(logging.getLogger().removeHandler, self._log_handler)
+        handler = RecorderLogHandler(recorder)  # the log on /log, INFO and above
+        logging.getLogger().addHandler(handler)
+        stack.callback(logging.getLogger().removeHandler, handler)
         self.recorder = recorder
 
     # -- the main loop ---------------------------------------------------------------------------
@@ -537,7 +523,6 @@ class Daemon:
             if now >= due_status:
                 due_status = now + pc.status_interval_s
                 self._emit("status", "/status", self.status(t_ns))
-            self._drain_logs()
             if self.recorder is not None and now - last_flush >= 1.0:
                 last_flush = now
                 self.recorder.flush()
@@ -551,21 +536,6 @@ class Daemon:
         if self.recorder is not None:
             kind = message["schema"].split("/")[0]
             self.recorder.write(topic, kind, schema_for(kind), message, t_ns=message["t_ns"])
-
-    def _drain_logs(self) -> None:
-        pending = self._log_handler.pending
-        if self.recorder is None:
-            pending.clear()
-            return
-        while pending:
-            record = pending.popleft()
-            self.recorder.write(
-                "/log",
-                "foxglove.Log",
-                FOXGLOVE_LOG_SCHEMA,
-                log_message(record),
-                t_ns=int(record.created * 1e9),
-            )
 
     def _healthy(self, now: float) -> bool:
         """Every processing thread alive and looping: the watchdog may be kicked."""

@@ -364,7 +364,7 @@ def _check_config(args: argparse.Namespace) -> int:
 
 def _recover(args: argparse.Namespace) -> int:
     """``weatherd recover BROKEN.mcap OUT.mcap``: repair an unfinished recording."""
-    from daemon.recorder import recover
+    from daemon.mcap_repair import recover
 
     result = recover(args.broken, args.out)
     print(json.dumps(_as_json(result), separators=(",", ":")))

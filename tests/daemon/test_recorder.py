@@ -24,6 +24,7 @@ from mcap.reader import make_reader
 from mcap.writer import CompressionType
 
 import daemon.recorder as recorder_mod
+from daemon.mcap_repair import recover, recover_directory
 from daemon.recorder import (
     FOXGLOVE_COMPRESSED_IMAGE_SCHEMA,
     FOXGLOVE_LOG_SCHEMA,
@@ -35,8 +36,6 @@ from daemon.recorder import (
     compressed_image,
     encode_json,
     log_message,
-    recover,
-    recover_directory,
 )
 from drivers.errors import InputError
 
