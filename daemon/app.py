@@ -62,6 +62,8 @@ DEMO_CAMERA = CameraConfig(id="demo", source="demo:", width=640, height=360, fps
 TICK_S = 0.1
 #: A camera whose last result is older than this (s) cannot judge.
 STALE_S = 5.0
+#: How the log names the site's precipitation verdict.
+_WORDS = {True: "YES", False: "no", None: "unknown"}
 #: A processing thread that has not looped for this long (s) is hung: the watchdog stops.
 HUNG_S = 20.0
 
@@ -512,10 +514,11 @@ class Daemon:
             if changed or now >= due_state:
                 if changed and precipitation != "unset":
                     log.info(
-                        "site %s: precipitation %s",
+                        "site %s: precipitation %s (was %s)%s",
                         self.site,
-                        {True: "STARTED", False: "stopped", None: "unknown"}[state["precipitation"]]
-                        + (f" ({state['reason']})" if state.get("reason") else ""),
+                        _WORDS[state["precipitation"]],
+                        _WORDS[precipitation],
+                        f": {state['reason']}" if state.get("reason") else "",
                     )
                 precipitation = state["precipitation"]
                 due_state = now + pc.state_interval_s
