@@ -297,22 +297,25 @@ def _reference_options(args: argparse.Namespace) -> dict[str, Any]:
     return {k: v for k, v in options.items() if v is not None and not (k == "tz" and v == "UTC")}
 
 
+def _offline_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The keyword arguments that ``calibrate`` and ``compare`` share."""
+    return {
+        "station": args.station,
+        "camera": args.camera,
+        "threshold_mm": args.threshold_mm,
+        "plots_dir": args.plots,
+        "report": _report_path(args),
+        "reference_options": _reference_options(args),
+        "progress": False if args.no_progress else None,
+    }
+
+
 def _calibrate(args: argparse.Namespace) -> int:
     """``weatherd calibrate``: fit R -> mm/h; ends with one JSON line (contract)."""
     from daemon.offline.calibrate import calibrate
 
     result = calibrate(
-        args.mcap,
-        args.reference,
-        station=args.station,
-        camera=args.camera,
-        model=args.model,
-        plots_dir=args.plots,
-        report=_report_path(args),
-        out=args.out,
-        threshold_mm=args.threshold_mm,
-        reference_options=_reference_options(args),
-        progress=None if not args.no_progress else False,
+        args.mcap, args.reference, model=args.model, out=args.out, **_offline_options(args)
     )
     print(json.dumps(_as_json(result), separators=(",", ":"), allow_nan=False))
     return EXIT_OK
@@ -325,14 +328,8 @@ def _compare(args: argparse.Namespace) -> int:
     result = compare(
         args.mcap,
         args.reference,
-        station=args.station,
-        camera=args.camera,
-        threshold_mm=args.threshold_mm,
         camera_fraction=args.camera_fraction,
-        plots_dir=args.plots,
-        report=_report_path(args),
-        reference_options=_reference_options(args),
-        progress=None if not args.no_progress else False,
+        **_offline_options(args),
     )
     if not args.full:
         result = {k: v for k, v in result.items() if k != "table"}
