@@ -444,8 +444,13 @@ class Daemon:
         # Repairing a large crashed file takes a while (about 5 MB/s): in the background, so
         # that start-up (and systemd's start timeout) does not wait for it. The recorder never
         # touches an earlier run's .part files, and repair renames into place atomically.
+        # The unfinished files are listed now, before the new recording's own .part exists.
+        unfinished = sorted(directory.glob("*.mcap.part"))
         repair = threading.Thread(
-            target=_recover_recordings, args=(directory,), name="mcap repair", daemon=True
+            target=_recover_recordings,
+            args=(directory, unfinished),
+            name="mcap repair",
+            daemon=True,
         )
         repair.start()
         stack.callback(repair.join, 30.0)
@@ -580,9 +585,9 @@ def _calibration(config: Config) -> OnlineCalibration:
     return OnlineCalibration(params, state_path=path, prior=prior)
 
 
-def _recover_recordings(directory: Path) -> None:
+def _recover_recordings(directory: Path, parts: list[Path]) -> None:
     try:
-        for result in recover_directory(directory):
+        for result in recover_directory(directory, parts=parts):
             if result.dst is not None:
                 log.info(
                     "recovered an unfinished recording: %s -> %s (%d messages, %d bytes dropped)",

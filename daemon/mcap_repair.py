@@ -16,7 +16,7 @@ import itertools
 import logging
 import os
 import struct
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import suppress
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -213,13 +213,18 @@ def _copy_records(
     return messages, len(channel_ids), len(schema_ids), first, last
 
 
-def recover_directory(directory: str | os.PathLike) -> list[RecoverResult]:
+def recover_directory(
+    directory: str | os.PathLike, *, parts: Iterable[Path] | None = None
+) -> list[RecoverResult]:
     """Repair each ``*.mcap.part`` of ``directory`` into its ``*.mcap`` and remove the ``.part``.
 
-    A ``.part`` without a complete message (empty, header only, cut inside the magic) is just
-    removed. One that is not MCAP at all is logged and left in place. Safe to run twice, and
-    after a crash in the middle of a run. Never raises for a bad or unwritable file: it is
-    logged and skipped. Returns one result per ``.part`` handled (``dst`` ``None`` if removed).
+    ``parts`` limits the repair to these files: a caller that repairs in the background while
+    a new recording starts lists the unfinished files first, so that the file being written now
+    is never taken for a crashed one. A ``.part`` without a complete message (empty, header
+    only, cut inside the magic) is just removed. One that is not MCAP at all is logged and left
+    in place. Safe to run twice, and after a crash in the middle of a run. Never raises for a
+    bad or unwritable file: it is logged and skipped. Returns one result per ``.part`` handled
+    (``dst`` ``None`` if removed).
     """
     directory = Path(directory)
     results: list[RecoverResult] = []
@@ -229,7 +234,7 @@ def recover_directory(directory: str | os.PathLike) -> list[RecoverResult]:
         with suppress(OSError):
             stale.unlink()
             log.info("removed %s, left over from an interrupted repair", stale)
-    for part in sorted(directory.glob("*.mcap.part")):
+    for part in sorted(directory.glob("*.mcap.part") if parts is None else parts):
         dst = part.with_suffix("")
         try:
             if part.stat().st_size < len(MCAP_MAGIC) and MCAP_MAGIC.startswith(part.read_bytes()):
