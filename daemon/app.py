@@ -299,7 +299,7 @@ class CameraPipeline:
     def stats(self) -> dict[str, Any]:
         cap = self.capture.stats()
         return {
-            "source": cap.get("source", self.capture.name if hasattr(self.capture, "name") else ""),
+            "source": cap.get("source") or mask_credentials(self.camera.source),
             "capture_state": cap.get("state", "unknown"),
             "detector_state": self.detector_state,
             "fps": _round(cap.get("fps")),
@@ -558,7 +558,6 @@ class Daemon:
         if self.recorder is not None:
             recorder |= self.recorder.stats()
             recorder["dir"] = str(self.recording_dir)
-        zenoh_stats = self.publisher.stats() if hasattr(self.publisher, "stats") else {}
         return stamp(
             "weather.status",
             site=self.site,
@@ -567,7 +566,7 @@ class Daemon:
             versions=self._versions,
             cameras={p.camera.id: p.stats() for p in self.pipelines},
             recorder=recorder,
-            zenoh=zenoh_stats,
+            zenoh=self.publisher.stats(),
             instruments=self.instruments.stats(),
             calibration=self.calibration.quality(t_ns),
             pid=os.getpid(),

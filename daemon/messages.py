@@ -24,13 +24,12 @@ from __future__ import annotations
 import datetime as dt
 import functools
 import json
-import math
 from importlib import resources
 from typing import Any
 
 import numpy as np
 
-from hos.result import FrameResult
+from hos.result import FrameResult, json_angle_deg, json_float
 
 __all__ = [
     "SCHEMAS",
@@ -95,12 +94,7 @@ def histogram_message(result: FrameResult, *, site: str, camera: str, t_ns: int)
         frame=int(result.frame),
         bin_width_deg=180.0 / max(len(values), 1),
         histogram=values,
-        pi=_num(fit.pi) if ok else None,
-        mu_deg=round(math.degrees(fit.mu) % 180.0, 4) if ok and math.isfinite(fit.mu) else None,
-        sigma_deg=_num(math.degrees(fit.sigma)) if ok else None,
+        pi=json_float(fit.pi) if ok else None,
+        mu_deg=json_angle_deg(fit.mu) if ok else None,
+        sigma_deg=json_angle_deg(fit.sigma) if ok else None,
     )
-
-
-def _num(x: float) -> float | None:
-    x = float(x)
-    return round(x, 6) if math.isfinite(x) else None

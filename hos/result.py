@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["BlobClass", "FrameResult", "MixtureFit", "State"]
+__all__ = ["BlobClass", "FrameResult", "MixtureFit", "State", "json_angle_deg", "json_float"]
 
 
 class State:
@@ -91,30 +91,32 @@ class FrameResult:
             "t_s": round(float(self.t_s), 6),
             "rain": bool(self.rain),
             "state": self.state,
-            "pi": _num(fit.pi) if has_fit else None,
-            "mu_deg": _deg(fit.mu) if has_fit else None,
-            "sigma_deg": _deg(fit.sigma) if has_fit else None,
-            "gof_d": _num(fit.gof_d) if has_fit else None,
+            "pi": json_float(fit.pi) if has_fit else None,
+            "mu_deg": json_angle_deg(fit.mu) if has_fit else None,
+            "sigma_deg": json_angle_deg(fit.sigma) if has_fit else None,
+            "gof_d": json_float(fit.gof_d) if has_fit else None,
             "gof_ok": bool(fit.gof_ok) if has_fit else None,
-            "pi_smoothed": _num(self.pi_smoothed),
-            "mu_smoothed_deg": _deg(self.mu_smoothed),
-            "sigma_smoothed_deg": _deg(self.sigma_smoothed),
-            "S": _num(self.S),
-            "R": _num(self.R),
+            "pi_smoothed": json_float(self.pi_smoothed),
+            "mu_smoothed_deg": json_angle_deg(self.mu_smoothed),
+            "sigma_smoothed_deg": json_angle_deg(self.sigma_smoothed),
+            "S": json_float(self.S),
+            "R": json_float(self.R),
             "n_blobs": int(self.n_blobs),
             "n_rain_blobs": int(self.n_rain_blobs),
-            "motion_px": _num(self.motion_px),
-            "gain": _num(self.gain),
-            "brightness": _num(self.brightness),
+            "motion_px": json_float(self.motion_px),
+            "gain": json_float(self.gain),
+            "brightness": json_float(self.brightness),
             "n_structural_blobs": int(self.n_structural_blobs),
         }
 
 
-def _num(x: float) -> float | None:
+def json_float(x: float) -> float | None:
+    """A float for JSON: rounded to 6 decimals, None when not finite."""
     x = float(x)
     return round(x, 6) if math.isfinite(x) else None
 
 
-def _deg(x: float) -> float | None:
+def json_angle_deg(x: float) -> float | None:
+    """An angle in radians for JSON: degrees in [0, 180), 4 decimals, None when not finite."""
     x = float(x)
     return round(math.degrees(x) % 180.0, 4) if math.isfinite(x) else None
