@@ -38,7 +38,7 @@ import logging
 import math
 import os
 import warnings
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -180,6 +180,30 @@ def _wls(u: np.ndarray, v: np.ndarray, w: np.ndarray, *, slope: bool) -> tuple:
         return (sv - b * su) / sw, b
 
 
+def _irls(
+    u: np.ndarray,
+    v: np.ndarray,
+    alpha: np.ndarray,
+    b: np.ndarray,
+    weigh: Callable[[np.ndarray], np.ndarray],
+    *,
+    slope: bool,
+    steps: int,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Iteratively reweighted least squares from (alpha, b) with the weights ``weigh(res)``,
+    until the parameters settle or ``steps`` run out: (alpha, b, last weights)."""
+    for _ in range(steps):
+        w = weigh(v - alpha[:, None] - b[:, None] * u)
+        new_alpha, new_b = _wls(u, v, w, slope=slope)
+        done = np.allclose(new_alpha, alpha, atol=1e-10, equal_nan=True) and np.allclose(
+            new_b, b, atol=1e-10, equal_nan=True
+        )
+        alpha, b = new_alpha, new_b
+        if done:
+            break
+    return alpha, b, w
+
+
 def _robust_rows(u: np.ndarray, v: np.ndarray, *, slope: bool) -> tuple:
     """Huber then Tukey IRLS per row; returns (alpha, b, weights, scale, smearing factor).
 
@@ -192,33 +216,23 @@ def _robust_rows(u: np.ndarray, v: np.ndarray, *, slope: bool) -> tuple:
     if u.shape[1] < MIN_ROBUST:
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             return alpha, b, w, scale, np.exp(res).mean(axis=1)
-    for _ in range(50):  # Huber, scale re-estimated each step
-        res = v - alpha[:, None] - b[:, None] * u
+
+    def huber(res: np.ndarray) -> np.ndarray:  # the scale is re-estimated each step
+        nonlocal scale
         scale = _mad_scale(res)
         cs = (_HUBER_C * scale)[:, None]
         with np.errstate(divide="ignore", invalid="ignore"):
             w = np.where(np.abs(res) <= cs, 1.0, cs / np.abs(res))
-        w = np.where(scale[:, None] > 0, w, 1.0)
-        new_alpha, new_b = _wls(u, v, w, slope=slope)
-        done = np.allclose(new_alpha, alpha, atol=1e-10, equal_nan=True) and np.allclose(
-            new_b, b, atol=1e-10, equal_nan=True
-        )
-        alpha, b = new_alpha, new_b
-        if done:
-            break
-    for _ in range(100):  # Tukey's biweight, scale fixed
-        res = v - alpha[:, None] - b[:, None] * u
+        return np.where(scale[:, None] > 0, w, 1.0)
+
+    def tukey(res: np.ndarray) -> np.ndarray:  # the scale is the one Huber ended with
         with np.errstate(divide="ignore", invalid="ignore"):
             z = res / (_TUKEY_C * scale)[:, None]
         w = np.where(np.abs(z) < 1.0, (1.0 - z * z) ** 2, 0.0)
-        w = np.where(scale[:, None] > 0, w, 1.0)
-        new_alpha, new_b = _wls(u, v, w, slope=slope)
-        done = np.allclose(new_alpha, alpha, atol=1e-10, equal_nan=True) and np.allclose(
-            new_b, b, atol=1e-10, equal_nan=True
-        )
-        alpha, b = new_alpha, new_b
-        if done:
-            break
+        return np.where(scale[:, None] > 0, w, 1.0)
+
+    alpha, b, w = _irls(u, v, alpha, b, huber, slope=slope, steps=50)
+    alpha, b, w = _irls(u, v, alpha, b, tukey, slope=slope, steps=100)
     res = v - alpha[:, None] - b[:, None] * u
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         smear = (w * np.exp(res)).sum(axis=1) / w.sum(axis=1)
