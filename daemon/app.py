@@ -28,9 +28,9 @@ from typing import Any
 import cv2
 import numpy as np
 
-from drivers.errors import ConfigError
+from drivers.errors import ConfigError, InputError
 from drivers.frames import FrameSource, LiveFrame, mask_credentials, open_source
-from drivers.video import read_gray_image
+from drivers.video import read_roi_mask, roi_for_size
 from hos import FrameResult, HosDetector
 from hos.overlay import draw_overlay
 from hos.params import DetectorParams
@@ -291,10 +291,7 @@ class CameraPipeline:
     def _roi(self, width: int, height: int) -> np.ndarray | None:
         if self._roi_image is None:
             return None
-        mask = self._roi_image
-        if mask.shape != (height, width):
-            mask = cv2.resize(mask, (width, height), interpolation=cv2.INTER_NEAREST)
-        return mask != 0
+        return roi_for_size(self._roi_image, width=width, height=height)
 
     def stats(self) -> dict[str, Any]:
         cap = self.capture.stats()
@@ -331,12 +328,10 @@ def _open_camera(camera: CameraConfig) -> FrameSource:
 def _read_roi_image(camera: CameraConfig) -> np.ndarray | None:
     if camera.roi is None:
         return None
-    mask = read_gray_image(camera.roi)
-    if mask is None:
-        raise ConfigError(f"camera {camera.id}: roi: cannot read the mask image {camera.roi}")
-    if not mask.any():
-        raise ConfigError(f"camera {camera.id}: roi: the mask {camera.roi} selects no pixel")
-    return mask
+    try:
+        return read_roi_mask(camera.roi)
+    except InputError as exc:
+        raise ConfigError(f"camera {camera.id}: roi: {exc}") from None
 
 
 class _NoPublisher:

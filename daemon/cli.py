@@ -27,13 +27,12 @@ from collections import deque
 from collections.abc import Iterator, Sequence
 from typing import Any, NoReturn, TextIO
 
-import cv2
 import numpy as np
 
 from daemon.config import Config, detector_params, load_config, parse_config
 from daemon.detection import detect_frames
 from drivers.errors import ConfigError, InputError, WeatherdError
-from drivers.video import Frame, VideoWriter, open_video, read_gray_image
+from drivers.video import Frame, VideoWriter, open_video, read_roi_mask, roi_for_size
 from hos.overlay import draw_overlay
 from hos.params import DetectorParams
 from hos.pipeline import HosDetector
@@ -161,14 +160,7 @@ def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.nda
     ------
     InputError : unreadable image, or a mask that selects no pixel.
     """
-    mask = read_gray_image(path)
-    if mask is None:
-        raise InputError(f"{path}: cannot read the ROI mask (an image; nonzero = analysed)")
-    if mask.shape != (height, width):
-        mask = cv2.resize(mask, (width, height), interpolation=cv2.INTER_NEAREST)
-    if not mask.any():
-        raise InputError(f"{path}: the ROI mask selects no pixel (nonzero = analysed)")
-    return mask != 0
+    return roi_for_size(read_roi_mask(path), width=width, height=height)
 
 
 # -- run ---------------------------------------------------------------------------------

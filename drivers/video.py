@@ -57,6 +57,8 @@ __all__ = [
     "VideoWriter",
     "open_video",
     "read_gray_image",
+    "read_roi_mask",
+    "roi_for_size",
 ]
 
 log = logging.getLogger(__name__)
@@ -508,6 +510,28 @@ def read_gray_image(path: str | PathLike[str]) -> np.ndarray | None:
     if gray is None or gray.ndim != 2 or gray.size == 0:
         return None
     return np.ascontiguousarray(gray, dtype=np.uint8)
+
+
+def read_roi_mask(path: str | PathLike[str]) -> np.ndarray:
+    """A region-of-interest mask image: (H, W) uint8, nonzero where analysed.
+
+    Raises
+    ------
+    InputError : unreadable image, or a mask that selects no pixel.
+    """
+    mask = read_gray_image(path)
+    if mask is None:
+        raise InputError(f"{path}: cannot read the ROI mask (an image; nonzero = analysed)")
+    if not mask.any():
+        raise InputError(f"{path}: the ROI mask selects no pixel (nonzero = analysed)")
+    return mask
+
+
+def roi_for_size(mask: np.ndarray, *, width: int, height: int) -> np.ndarray:
+    """(height, width) bool from a mask of any size (nearest-neighbour resize)."""
+    if mask.shape != (height, width):
+        mask = cv2.resize(mask, (width, height), interpolation=cv2.INTER_NEAREST)
+    return mask != 0
 
 
 def _seconds(pts: int | None, time_base: Fraction | None) -> float | None:
