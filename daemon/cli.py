@@ -25,11 +25,10 @@ import tomllib
 import traceback
 from collections import deque
 from collections.abc import Iterator, Sequence
-from typing import Any, NoReturn, TextIO
+from typing import TYPE_CHECKING, Any, NoReturn, TextIO
 
 import numpy as np
 
-from daemon.config import Config, detector_params, load_config, parse_config
 from daemon.detection import detect_frames
 from drivers.errors import ConfigError, InputError, WeatherdError
 from drivers.video import Frame, VideoWriter, open_video, read_roi_mask, roi_for_size
@@ -38,7 +37,10 @@ from hos.params import DetectorParams
 from hos.pipeline import HosDetector
 from hos.result import FrameResult
 
-__all__ = ["detector_params", "load_config", "main", "read_roi"]
+if TYPE_CHECKING:
+    from daemon.config import Config
+
+__all__ = ["main", "read_roi"]
 
 # Not __name__: ``python -m daemon.cli`` runs this module as ``__main__``.
 log = logging.getLogger("daemon.cli")
@@ -171,6 +173,7 @@ def _run(args: argparse.Namespace) -> int:
     it), 1 for anything unexpected (systemd restarts).
     """
     from daemon.app import Daemon  # imports Zenoh and the recorder only when needed
+    from daemon.config import load_config, parse_config
 
     # A watchdog timeout is a SIGABRT: the journal then shows where every thread was.
     faulthandler.enable(all_threads=True)
@@ -188,6 +191,7 @@ def _run(args: argparse.Namespace) -> int:
 
 def _replay(args: argparse.Namespace) -> int:
     """``weatherd replay VIDEO... --out FILE.mcap``: the daemon's MCAP, offline."""
+    from daemon.config import detector_params, load_config, parse_config
     from daemon.replay import parse_start, replay
 
     config = load_config(args.config) if args.config else parse_config({})
@@ -336,6 +340,7 @@ def _compare(args: argparse.Namespace) -> int:
 def _check_config(args: argparse.Namespace) -> int:
     """``weatherd check-config PATH``: validate, print a one-line summary, exit 0 or 2."""
     from daemon.app import check_paths
+    from daemon.config import load_config
     from drivers.frames import mask_credentials
 
     config = load_config(args.path)
@@ -393,6 +398,7 @@ def _get(args: argparse.Namespace) -> int:
 
 
 def _zenoh_conf(args: argparse.Namespace) -> object:
+    from daemon.config import load_config
     from daemon.publisher import zenoh_config
 
     zc = load_config(args.config).zenoh if args.config else None
@@ -431,6 +437,10 @@ def _config_params(path: str | None) -> tuple[Config | None, DetectorParams]:
     """The configuration file (or none) and its global detector parameters."""
     if path is None:
         return None, DetectorParams()
+    # Imported here: pydantic costs 0.15 s of start-up that `weatherd detect VIDEO` without
+    # --config does not need.
+    from daemon.config import detector_params, load_config
+
     config = load_config(path)
     return config, detector_params({"detector": config.detector})
 

@@ -8,7 +8,9 @@
   photometric rule compares with a running background image learnt from non-foreground pixels.
 * :func:`frame_difference_rule`: eq. 32, ``I_n - I_{n-1} >= c and I_n - I_{n+1} >= c``.
 
-These are the only stateful parts of segmentation; the state is the background model.
+These are the only stateful parts of segmentation; the state is the background model. Both
+segmenters return the candidate pixels as a sparse list (ascending flat indices ``y * W + x``):
+a few percent of the image at most, which is all the later steps read.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from . import _jit
 from .params import SegmentationParams
 
 __all__ = [
@@ -23,8 +26,18 @@ __all__ = [
     "MogSegmenter",
     "create_mog2",
     "frame_difference_rule",
+    "mask_to_index",
     "photometric_rule",
 ]
+
+
+def mask_to_index(mask: np.ndarray) -> np.ndarray:
+    """(N,) intp ascending flat indices ``y * W + x`` of the nonzero pixels of a (H, W) mask."""
+    points = cv2.findNonZero(mask)  # several times faster than np.flatnonzero on sparse masks
+    if points is None:
+        return np.zeros(0, np.intp)
+    points = points.reshape(-1, 2)  # OpenCV 4 returns (N, 1, 2), OpenCV 5 (N, 2)
+    return points[:, 1].astype(np.intp) * mask.shape[1] + points[:, 0]
 
 
 def photometric_rule(
@@ -66,38 +79,75 @@ def create_mog2(params: SegmentationParams) -> cv2.BackgroundSubtractorMOG2:
     return mog
 
 
-class MogSegmenter:
-    """MoG foreground + photometric rule; ``apply(gray) -> candidate mask``."""
+#: The running background of the photometric rule is updated one band of rows at a time.
+BACKGROUND_BANDS = 4
 
-    def __init__(self, params: SegmentationParams) -> None:
+
+class MogSegmenter:
+    """MoG foreground + photometric rule; ``apply(gray) -> candidate pixels``.
+
+    ``compiled``: run the photometric rule and the running background as one compiled pass
+    (``hos._jit``; the same result as the OpenCV calls, tests/hos/test_jit.py). None uses it
+    when numba is available.
+    """
+
+    def __init__(self, params: SegmentationParams, *, compiled: bool | None = None) -> None:
         self.params = params
         self._mog = create_mog2(params)
+        self._compiled = _jit.ENABLED if compiled is None else compiled and _jit.ENABLED
         self._background: np.ndarray | None = None  # float32 running background
         self._background_u8: np.ndarray | None = None
+        self._band = 0
         self.delay = 0
         #: Fraction of the image in MoG's foreground at the last frame (scene-change check).
         self.foreground_fraction = 0.0
 
     def apply(self, gray: np.ndarray, *, learning_rate: float = -1.0) -> np.ndarray:
-        """Candidate mask (uint8, 255 = candidate) for ``gray``; updates the model.
+        """Candidate pixels of ``gray``, (N,) intp ascending flat indices; updates the model.
 
         ``learning_rate`` < 0 lets MOG2 use ``1 / min(frames seen, history)``.
         """
         fg = self._mog.apply(gray, learningRate=learning_rate)
-        self.foreground_fraction = cv2.countNonZero(fg) / fg.size
         if self._background is None:
+            self.foreground_fraction = cv2.countNonZero(fg) / fg.size
             self._background = gray.astype(np.float32)
             self._background_u8 = gray.copy()
-            return np.zeros_like(gray)
-        candidates = photometric_rule(gray, self._background_u8, fg, c=self.params.photometric_c)
+            return np.zeros(0, np.intp)
+        c = round(self.params.photometric_c)
         rate = self.params.background_rate if learning_rate < 0 else max(learning_rate, 0.02)
-        cv2.accumulateWeighted(gray, self._background, rate, mask=cv2.bitwise_not(fg))
-        self._background_u8 = cv2.convertScaleAbs(self._background)
-        return candidates
+        if self._compiled:
+            index, n_fg = _jit.photometric_candidates(gray, fg, self._background, c=c)
+            self.foreground_fraction = n_fg / fg.size
+        else:
+            self.foreground_fraction = cv2.countNonZero(fg) / fg.size
+            index = mask_to_index(photometric_rule(gray, self._background_u8, fg, c=c))
+        self._update_background(gray, fg, rate)
+        return index
+
+    def _update_background(self, gray: np.ndarray, fg: np.ndarray, rate: float) -> None:
+        """Running average of the frame off the foreground, one horizontal band per frame.
+
+        Each of the ``BACKGROUND_BANDS`` bands is updated every ``BACKGROUND_BANDS`` frames with
+        the rate compounded to match, ``1 - (1 - rate) ** bands``: the same average over the
+        ~50-frame memory, for a fraction of the memory traffic (the float32 image is the
+        largest thing the detector touches after MOG2's model).
+        """
+        bands = BACKGROUND_BANDS
+        k = self._band % bands
+        self._band += 1
+        h = gray.shape[0]
+        lo, hi = h * k // bands, h * (k + 1) // bands
+        if hi <= lo:
+            return
+        band = self._background[lo:hi]  # rows of a C-contiguous image: updated in place
+        compounded = 1.0 - (1.0 - rate) ** bands
+        cv2.accumulateWeighted(gray[lo:hi], band, compounded, mask=cv2.bitwise_not(fg[lo:hi]))
+        if not self._compiled:  # the compiled rule rounds the float image itself
+            self._background_u8[lo:hi] = cv2.convertScaleAbs(band)
 
 
 class FrameDiffSegmenter:
-    """Eq. 32 with one frame of delay: ``apply(I_{n+1})`` returns the mask of frame n."""
+    """Eq. 32 with one frame of delay: ``apply(I_{n+1})`` returns the candidates of frame n."""
 
     def __init__(self, params: SegmentationParams) -> None:
         self.params = params
@@ -111,6 +161,6 @@ class FrameDiffSegmenter:
         if len(self._frames) > 3:
             self._frames.pop(0)
         if len(self._frames) < 3:
-            return np.zeros_like(gray)
+            return np.zeros(0, np.intp)
         prev, cur, nxt = self._frames
-        return frame_difference_rule(prev, cur, nxt, c=self.params.photometric_c)
+        return mask_to_index(frame_difference_rule(prev, cur, nxt, c=self.params.photometric_c))

@@ -14,29 +14,64 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from . import _jit
 from .moments import BlobMoments, blob_moments
 
-__all__ = ["Blobs", "find_blobs", "label_candidates", "size_rule", "structure_rule"]
+__all__ = [
+    "Blobs",
+    "CandidateRate",
+    "blob_mean_rate",
+    "find_blobs",
+    "find_blobs_sparse",
+    "label_candidates",
+    "size_rule",
+    "structure_rule",
+]
 
 
 @dataclass(frozen=True)
 class Blobs:
-    """Connected components of a candidate mask and the moments of each.
+    """Connected components of a set of candidate pixels and the moments of each.
 
-    labels : (H, W) int32 label image, 0 = not a candidate
-    n_labels : number of labels including 0
-    xs, ys, pixel_labels : (N,) int, coordinates and label of every candidate pixel
+    index : (N,) intp, flat index ``y * W + x`` of every candidate pixel, ascending
+    pixel_labels : (N,) int, label of every candidate pixel, in [1, n_labels)
+    n_labels : number of labels including 0 (the background)
     moments : BlobMoments over the labels
-    index : (N,) intp, flat index ``ys * W + xs`` of every candidate pixel, row-major order
+    shape : (H, W) of the image
+    labels : (H, W) int32 label image, 0 = not a candidate, when it was computed (the dense
+        path); :meth:`label_image` makes it on demand otherwise
+    rate_sum : (n_labels,) float64, sum over each blob of the candidate rate it was labelled
+        with (:func:`find_blobs_sparse`), else None
     """
 
-    labels: np.ndarray
-    n_labels: int
-    xs: np.ndarray
-    ys: np.ndarray
-    pixel_labels: np.ndarray
-    moments: BlobMoments
     index: np.ndarray
+    pixel_labels: np.ndarray
+    n_labels: int
+    moments: BlobMoments
+    shape: tuple[int, int]
+    labels: np.ndarray | None = None
+    rate_sum: np.ndarray | None = None
+
+    @property
+    def xs(self) -> np.ndarray:
+        return self.index % self.shape[1]
+
+    @property
+    def ys(self) -> np.ndarray:
+        return self.index // self.shape[1]
+
+    def label_image(self) -> np.ndarray:
+        """(H, W) int32 label image, 0 where no candidate."""
+        if self.labels is not None:
+            return self.labels
+        return label_image(self.index, self.pixel_labels, self.shape)
+
+
+def label_image(index: np.ndarray, pixel_labels: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
+    """(H, W) int32 image with ``pixel_labels`` at the flat ``index`` and 0 elsewhere."""
+    out = np.zeros(shape, np.int32)
+    out.reshape(-1)[index] = pixel_labels
+    return out
 
 
 def label_candidates(mask: np.ndarray) -> tuple[int, np.ndarray]:
@@ -49,25 +84,61 @@ def label_candidates(mask: np.ndarray) -> tuple[int, np.ndarray]:
 def find_blobs(mask: np.ndarray, *, labelling: tuple[int, np.ndarray] | None = None) -> Blobs:
     """Label the 8-connected components of ``mask`` (uint8, nonzero = candidate).
 
-    Only the labels are computed over the whole image (OpenCV's Spaghetti labelling, ~1.5 ms at
-    1920x1080); statistics come from the sparse candidate pixels with ``np.bincount``, which is
-    several times cheaper than ``connectedComponentsWithStats`` when candidates are few.
+    The reference path, with OpenCV and numpy: only the labels are computed over the whole image
+    (OpenCV's Spaghetti labelling); statistics come from the sparse candidate pixels with
+    ``np.bincount``, several times cheaper than ``connectedComponentsWithStats``.
 
     ``labelling``: the result of :func:`label_candidates` on ``mask``, if already computed.
     """
     n_labels, labels = label_candidates(mask) if labelling is None else labelling
     points = cv2.findNonZero(mask)
+    shape = (mask.shape[0], mask.shape[1])
     if points is None:
         empty = np.zeros(0, dtype=np.intp)
         moments = blob_moments(empty, empty, empty, n_labels)
-        return Blobs(labels, n_labels, empty, empty, empty, moments, empty)
+        return Blobs(empty, empty, n_labels, moments, shape, labels)
     points = points.reshape(-1, 2)  # OpenCV 4 returns (N, 1, 2), OpenCV 5 (N, 2)
     xs = points[:, 0]
     ys = points[:, 1]
     index = ys.astype(np.intp) * mask.shape[1] + xs
     pixel_labels = labels.ravel().take(index)  # a flat take: several times cheaper than [ys, xs]
     moments = blob_moments(xs, ys, pixel_labels, n_labels)
-    return Blobs(labels, n_labels, xs, ys, pixel_labels, moments, index)
+    return Blobs(index, pixel_labels, n_labels, moments, shape, labels)
+
+
+def find_blobs_sparse(
+    index: np.ndarray,
+    shape: tuple[int, int],
+    *,
+    rate: CandidateRate | None = None,
+    min_area: float = 0.0,
+    max_area: float = np.inf,
+    compiled: bool | None = None,
+) -> Blobs:
+    """:func:`find_blobs` from the candidates as ascending flat indices instead of a mask.
+
+    With the compiled kernel (``hos._jit``) the work is proportional to the candidate pixels,
+    not to the image: labelling, moments and the sum of ``rate`` over each blob in one pass.
+    Without it, the mask is drawn and :func:`find_blobs` labels it. Blob labels may be numbered
+    differently by the two paths; the blobs, their pixels and their moments are the same.
+
+    ``min_area``, ``max_area``: the compiled path computes second moments and orientations only
+    for blobs of this size (the size rule's: most blobs are specks), NaN for the others.
+    """
+    use_jit = _jit.ENABLED if compiled is None else compiled and _jit.ENABLED
+    if not use_jit:
+        mask = np.zeros(shape, np.uint8)
+        mask.reshape(-1)[index] = 255
+        blobs = find_blobs(mask)
+        rate_sum = None if rate is None else blob_rate_sum(blobs, rate.stored)
+        return Blobs(
+            blobs.index, blobs.pixel_labels, blobs.n_labels, blobs.moments, shape,
+            blobs.labels, rate_sum,
+        )  # fmt: skip
+    labels, n_labels, *arrays, rate_sum = _jit.label_sparse(
+        index, shape, None if rate is None else rate.stored, min_area=min_area, max_area=max_area
+    )
+    return Blobs(index, labels, int(n_labels), BlobMoments(*arrays), shape, None, rate_sum)
 
 
 def size_rule(area: np.ndarray, *, min_area: float, max_area: float) -> np.ndarray:
@@ -75,25 +146,83 @@ def size_rule(area: np.ndarray, *, min_area: float, max_area: float) -> np.ndarr
     return (area >= min_area) & (area <= max_area)
 
 
-def structure_rule(
-    blobs: Blobs, rate: np.ndarray, *, global_rate: float, floor: float, ratio: float
-) -> np.ndarray:
-    """(n_labels,) bool: blobs that recur in place (structure), from the per-pixel rate.
+class CandidateRate:
+    """Per-pixel candidate rate: a running mean of the candidate mask over ``tau`` frames.
+
+    Updated from the sparse candidates only. The whole image decays by the same factor every
+    frame, so the decay is kept as one number: the rate is ``stored * scale``; a frame multiplies
+    ``scale`` by ``1 - alpha`` and adds ``alpha / scale`` at its candidate pixels, which is
+    ``rate = (1 - alpha) rate + alpha * mask`` (``cv2.accumulateWeighted``) without touching the
+    other pixels. ``stored`` is folded back into the rate when ``scale`` gets small.
 
     Parameters
     ----------
-    blobs : the current frame's blobs
-    rate : (H, W) float32, per-pixel candidate rate *before* this frame was added
+    shape : (H, W)
+    tau : frames of the running mean (``persistence_frames``); the first frames are averaged
+        with ``1 / n`` so that the rate is meaningful from the start
+    """
+
+    _RENORMALISE_BELOW = 1e-4
+
+    def __init__(self, shape: tuple[int, int], tau: float) -> None:
+        self.shape = shape
+        self.tau = float(tau)
+        self.stored = np.zeros(shape[0] * shape[1], np.float32)
+        self.scale = 1.0
+        self.frames = 0
+        #: Mean candidate rate over the region of interest (the same running mean of the
+        #: candidate fraction).
+        self.global_rate = 0.0
+
+    def update(self, index: np.ndarray, fraction: float) -> None:
+        """Add one frame: candidate pixels ``index`` (flat), ``fraction`` of the ROI."""
+        self.frames += 1
+        alpha = max(1.0 / self.frames, 1.0 / self.tau)
+        self.global_rate += alpha * (fraction - self.global_rate)
+        if alpha >= 1.0:  # the first frame: the rate is the mask
+            self.stored.fill(0.0)
+            self.scale = 1.0
+            self.stored[index] = 1.0
+            return
+        self.scale *= 1.0 - alpha
+        self.stored[index] += np.float32(alpha / self.scale)  # indices are unique
+        if self.scale < self._RENORMALISE_BELOW:
+            self.stored *= np.float32(self.scale)
+            self.scale = 1.0
+
+    def values(self) -> np.ndarray:
+        """(H, W) float32, the rate of every pixel."""
+        return (self.stored * np.float32(self.scale)).reshape(self.shape)
+
+
+def blob_rate_sum(blobs: Blobs, stored: np.ndarray) -> np.ndarray:
+    """(n_labels,) float64, the sum of ``stored`` (flat, per pixel) over each blob's pixels."""
+    if blobs.index.size == 0:
+        return np.zeros(blobs.n_labels)
+    return np.bincount(blobs.pixel_labels, stored.take(blobs.index), blobs.n_labels)
+
+
+def blob_mean_rate(blobs: Blobs, rate: CandidateRate) -> np.ndarray:
+    """(n_labels,) mean candidate rate of each blob's pixels (NaN for label 0)."""
+    total = blobs.rate_sum if blobs.rate_sum is not None else blob_rate_sum(blobs, rate.stored)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return total * rate.scale / blobs.moments.area
+
+
+def structure_rule(
+    mean_rate: np.ndarray, *, global_rate: float, floor: float, ratio: float
+) -> np.ndarray:
+    """(n_labels,) bool: blobs that recur in place (structure), from their pixels' rate.
+
+    Parameters
+    ----------
+    mean_rate : (n_labels,) mean per-pixel candidate rate of each blob, *before* this frame was
+        added (:func:`blob_mean_rate`)
     global_rate : mean candidate rate over the region of interest
     floor, ratio : a blob is structural when its mean pixel rate exceeds
         ``max(floor, ratio * global_rate)``
     """
-    if blobs.xs.size == 0:
-        return np.zeros(blobs.n_labels, dtype=bool)
-    per_pixel = rate.ravel().take(blobs.index)  # float32; bincount sums in float64
-    area = blobs.moments.area
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean_rate = np.bincount(blobs.pixel_labels, per_pixel, blobs.n_labels) / area
     structural = mean_rate > max(floor, ratio * global_rate)  # NaN (no pixel) compares False
-    structural[0] = False
+    if structural.size:
+        structural[0] = False
     return structural

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["BlobMoments", "blob_moments", "orientation_uncertainty"]
+__all__ = ["BlobMoments", "blob_moments", "moments_from_central", "orientation_uncertainty"]
 
 #: Second moment of a unit pixel about its centre: a pixel is a 1x1 square, not a point.
 _PIXEL_VAR = 1.0 / 12.0
@@ -72,9 +72,27 @@ def blob_moments(xs: np.ndarray, ys: np.ndarray, labels: np.ndarray, n_labels: i
         # Centre on the blob's centroid before squaring: no cancellation at large coordinates.
         dx = xs - x0[labels]
         dy = ys - y0[labels]
-        m20 = np.bincount(labels, dx * dx, n_labels) * inv + _PIXEL_VAR  # eq. 13
+        m20 = np.bincount(labels, dx * dx, n_labels) * inv  # eq. 13
         m11 = np.bincount(labels, dx * dy, n_labels) * inv
-        m02 = np.bincount(labels, dy * dy, n_labels) * inv + _PIXEL_VAR
+        m02 = np.bincount(labels, dy * dy, n_labels) * inv
+    return moments_from_central(area, x0, y0, m20, m11, m02)
+
+
+def moments_from_central(
+    area: np.ndarray,
+    x0: np.ndarray,
+    y0: np.ndarray,
+    m20: np.ndarray,
+    m11: np.ndarray,
+    m02: np.ndarray,
+) -> BlobMoments:
+    """Orientation and semi-axes (eqs. 14-17) from each blob's central moments.
+
+    ``m20, m11, m02`` are the central second-order moments of the pixel *centres* divided by the
+    area (eq. 13); the second moment of a unit pixel (1/12) is added to m20 and m02 here.
+    """
+    m20 = m20 + _PIXEL_VAR
+    m02 = m02 + _PIXEL_VAR
     theta = np.mod(0.5 * np.arctan2(2.0 * m11, m20 - m02), np.pi)  # eq. 14, our axes
     half_trace = 0.5 * (m20 + m02)
     root = np.sqrt((0.5 * (m20 - m02)) ** 2 + m11 * m11)

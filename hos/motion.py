@@ -27,13 +27,26 @@ def reduce(gray: np.ndarray, scale: int) -> np.ndarray:
     """(H // scale, W // scale) float32 area-averaged copy of ``gray``.
 
     The image is cropped to a multiple of ``scale`` first: OpenCV's area resampling has a fast
-    path for whole-number factors only (1 ms against 0.1 ms at 960x540).
+    path for whole-number factors only (1 ms against 0.1 ms at 960x540), and a faster one still
+    for halving (0.01 ms), so a power-of-two factor is applied as repeated halvings (the mean of
+    2x2 means is the mean of the block; each halving rounds, so a value may differ from one
+    direct reduction by a grey level).
     """
     h, w = gray.shape[:2]
     hs, ws = max(h // scale, 1), max(w // scale, 1)
     if hs * scale <= h and ws * scale <= w:
         gray = gray[: hs * scale, : ws * scale]
-    small = cv2.resize(gray, (ws, hs), interpolation=cv2.INTER_AREA)
+    if scale > 1 and scale & (scale - 1) == 0 and hs * scale <= h and ws * scale <= w:
+        small = gray
+        while scale > 1:
+            small = cv2.resize(
+                small,
+                (small.shape[1] // 2, small.shape[0] // 2),
+                interpolation=cv2.INTER_AREA,
+            )
+            scale //= 2
+    else:
+        small = cv2.resize(gray, (ws, hs), interpolation=cv2.INTER_AREA)
     return small.astype(np.float32)
 
 

@@ -62,7 +62,7 @@ def draw_overlay(
     if gray.ndim != 2 or gray.dtype != np.uint8:
         raise ValueError(f"expected a (H, W) uint8 frame, got {gray.shape} {gray.dtype}")
     out = cv2.cvtColor(gray, cv2.COLOR_GRAY2BGR)
-    _colour_blobs(out, result.labels, result.blob_class)
+    _colour_blobs(out, result.label_image(), result.blob_class)
     _draw_inset(out, result)
     _draw_text(out, _summary_tokens(result, params), rain=result.rain)
     return out

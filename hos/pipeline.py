@@ -27,9 +27,10 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from . import _jit
 from .angles import wrap_diff, wrapped_normal_pdf
 from .background import FrameDiffSegmenter, MogSegmenter
-from .blobs import find_blobs, label_candidates, size_rule, structure_rule
+from .blobs import CandidateRate, blob_mean_rate, find_blobs_sparse, size_rule, structure_rule
 from .histogram import hos_histogram
 from .mixture import fit_mixture
 from .moments import orientation_uncertainty
@@ -37,6 +38,9 @@ from .motion import exposure_gain, global_translation, reduce
 from .params import DetectorParams
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
+
+if _jit.ENABLED:
+    from ._jit_mixture import fit_mixture_jit
 
 __all__ = ["HosDetector", "Segmented", "classify_blobs"]
 
@@ -70,17 +74,17 @@ class Segmented:
     frame: int
     t_s: float
     state: str
-    #: (H, W) uint8, 255 where candidate, restricted to the region of interest
+    #: (N,) intp, ascending flat indices ``y * W + x`` of the candidate pixels, restricted to
+    #: the region of interest
     candidates: np.ndarray
+    #: (H, W) of the frame
+    shape: tuple[int, int]
     candidate_fraction: float
     #: No rain evidence either way (warming up, scene change, camera offset this frame)
     hold: bool
     motion_px: float
     gain: float
     brightness: float
-    #: Connected components of ``candidates`` (see :func:`hos.blobs.label_candidates`), labelled
-    #: here rather than in ``analyse``: see the note in ``segment``.
-    labelling: tuple[int, np.ndarray] | None = None
 
 
 class HosDetector:
@@ -91,19 +95,27 @@ class HosDetector:
     params : DetectorParams, paper defaults
     roi : (H, W) bool or uint8, optional; nonzero pixels are analysed (exclude sky, trees, a
         busy road...). Resized with nearest neighbour if the frames have another size.
+    compiled : run the per-pixel and per-blob steps as compiled kernels (``hos._jit``, numba);
+        None (the default) does when numba is available. The results are the same either way
+        (tests/hos/test_jit.py); only the speed differs.
     """
 
-    def __init__(self, params: DetectorParams | None = None, *, roi: np.ndarray | None = None):
+    def __init__(
+        self,
+        params: DetectorParams | None = None,
+        *,
+        roi: np.ndarray | None = None,
+        compiled: bool | None = None,
+    ):
         self.params = params or DetectorParams()
+        self.compiled = _jit.ENABLED if compiled is None else bool(compiled) and _jit.ENABLED
         self._roi_input = None if roi is None else (np.asarray(roi) != 0).astype(np.uint8) * 255
         self._shape: tuple[int, int] | None = None
         self._index = -1
         self._reset_segmentation()
         # analyse()'s state: the per-pixel candidate rate and the Kalman filter
         self._smoother = ParameterSmoother(self.params.decision)
-        self._rate: np.ndarray | None = None
-        self._global_rate = 0.0
-        self._frames_analysed = 0  # frames in the candidate rate
+        self._rate: CandidateRate | None = None
         self._rate_frames = 0  # frames analysed since the rate map was (re)made
         self._last_fit: tuple[float, float, float] | None = None
 
@@ -121,7 +133,11 @@ class HosDetector:
     # -- stage 1: global measurements and candidate pixels -----------------------------------
     def _reset_segmentation(self) -> None:
         seg = self.params.segmentation
-        self._segmenter = MogSegmenter(seg) if seg.method == "mog" else FrameDiffSegmenter(seg)
+        self._segmenter = (
+            MogSegmenter(seg, compiled=self.compiled)
+            if seg.method == "mog"
+            else FrameDiffSegmenter(seg)
+        )
         self._frames_seen = 0
         self._relearn = 0
         self._ref_small: np.ndarray | None = None
@@ -134,12 +150,14 @@ class HosDetector:
         h, w = shape
         if self._roi_input is None:
             self._roi = None
+            self._roi_flat = None
             self._roi_area = h * w
         else:
             roi = self._roi_input
             if roi.shape != shape:
                 roi = cv2.resize(roi, (w, h), interpolation=cv2.INTER_NEAREST)
             self._roi = roi
+            self._roi_flat = roi.reshape(-1) != 0
             self._roi_area = max(cv2.countNonZero(roi), 1)
         self._scale = max(w // _REDUCED_WIDTH, 1)
         self._roi_small = None if self._roi is None else reduce(self._roi, self._scale) > 127
@@ -180,31 +198,26 @@ class HosDetector:
         self._relearn = max(self._relearn - 1, 0)
         candidates = self._segmenter.apply(frame, learning_rate=learning_rate)
         foreground_fraction = self._segmenter.foreground_fraction
-        if self._roi is not None:
-            candidates = cv2.bitwise_and(candidates, self._roi)
-        candidate_fraction = cv2.countNonZero(candidates) / self._roi_area
+        if self._roi_flat is not None:
+            candidates = candidates[self._roi_flat[candidates]]
+        candidate_fraction = candidates.size / self._roi_area
         if (
             self._frames_seen > rob.warmup_frames
             and max(candidate_fraction, foreground_fraction) > rob.scene_change_fraction
         ):
             self._relearn = rob.warmup_frames
         state = self._state(brightness)
-        # Labelling is OpenCV work too, so it is done here, on the thread that runs the
-        # background model: OpenCV has one thread pool, and a parallel call made while another
-        # thread's parallel call holds the pool runs serially. When analyse() labelled on the
-        # other thread, MOG2 ran on one core about half of the time (measured at 1920x1080).
-        labelling = label_candidates(candidates)
         return Segmented(
             frame=self._index,
             t_s=float(t_s),
             state=state,
             candidates=candidates,
+            shape=self._shape,
             candidate_fraction=candidate_fraction,
             hold=state in (State.WARMING_UP, State.SCENE_CHANGE) or moved,
             motion_px=motion_px,
             gain=self._gain,
             brightness=brightness,
-            labelling=labelling,
         )
 
     def _state(self, brightness: float) -> str:
@@ -248,11 +261,9 @@ class HosDetector:
         p = self.params
         rob = p.robustness
         candidates = seg.candidates
-        h = candidates.shape[0]
-        if self._rate is None or self._rate.shape != candidates.shape:
-            self._rate = np.zeros(candidates.shape, np.float32)
-            self._global_rate = 0.0
-            self._frames_analysed = 0
+        h = seg.shape[0]
+        if self._rate is None or self._rate.shape != seg.shape:
+            self._rate = CandidateRate(seg.shape, rob.persistence_frames)
             self._rate_frames = 0
         self._rate_frames += 1
         area_scale = (h / p.segmentation.size_reference_height) ** 2
@@ -260,12 +271,18 @@ class HosDetector:
         max_area = p.segmentation.max_area * area_scale
 
         # 3. blobs, size rule, structure rule
-        blobs = find_blobs(candidates, labelling=seg.labelling)
+        blobs = find_blobs_sparse(
+            candidates,
+            seg.shape,
+            rate=self._rate,
+            min_area=min_area,
+            max_area=max_area,
+            compiled=self.compiled,
+        )
         mom = blobs.moments
         structural = structure_rule(
-            blobs,
-            self._rate,
-            global_rate=self._global_rate,
+            blob_mean_rate(blobs, self._rate),
+            global_rate=self._rate.global_rate,
             floor=rob.persistence_floor,
             ratio=rob.persistence_ratio,
         )
@@ -274,7 +291,7 @@ class HosDetector:
         ):
             # Not while the background model is still learning, nor on a frame that changed
             # as a whole: that foreground says nothing about what recurs in place.
-            self._update_rate(candidates, seg.candidate_fraction)
+            self._rate.update(candidates, seg.candidate_fraction)
         sized = size_rule(mom.area, min_area=min_area, max_area=max_area)
         sized[0] = False
         accepted = sized & ~structural
@@ -299,7 +316,7 @@ class HosDetector:
             mp = p.mixture
             weights = mom.a[idx]
             n_eff = float(weights.sum()) ** 2 / float(np.sum(weights * weights))
-            fit = fit_mixture(
+            fit = (fit_mixture_jit if self.compiled else fit_mixture)(
                 hist,
                 max_iter=mp.max_iter,
                 tol=mp.tol,
@@ -369,18 +386,10 @@ class HosDetector:
             n_structural_blobs=int(np.count_nonzero(sized & structural)),
             labels=blobs.labels,
             blob_class=blob_class,
+            pixel_index=blobs.index,
+            pixel_labels=blobs.pixel_labels,
+            image_shape=seg.shape,
         )
-
-    def _update_rate(self, candidates: np.ndarray, fraction: float) -> None:
-        """Per-pixel and global candidate rates: running means over ~persistence_frames."""
-        self._frames_analysed += 1
-        tau = self.params.robustness.persistence_frames
-        alpha = max(1.0 / self._frames_analysed, 1.0 / tau)
-        # The mask is 0/255: accumulate it as 0/1 so that the rate is a frequency with the
-        # intended time constant (0/255 with alpha/255 made it decay 255 times too slowly, and
-        # every pixel of steady rain became "structural" after ~300 frames).
-        cv2.accumulateWeighted(cv2.bitwise_and(candidates, 1), self._rate, alpha)
-        self._global_rate += alpha * (fraction - self._global_rate)
 
     def _merge_correction(
         self, area: np.ndarray, accepted: np.ndarray, structural: np.ndarray, max_area: float

@@ -79,8 +79,23 @@ class FrameResult:
     candidate_fraction: float = 0.0
     n_structural_blobs: int = 0
     #: (H, W) int32 labels of the candidate mask and (n_labels,) uint8 class of each label.
+    #: ``labels`` may be None when the labels are kept sparse, as the candidate pixels' flat
+    #: indices ``pixel_index`` (N,) and their labels ``pixel_labels`` (N,): see label_image().
     labels: np.ndarray | None = field(default=None, repr=False)
     blob_class: np.ndarray | None = field(default=None, repr=False)
+    pixel_index: np.ndarray | None = field(default=None, repr=False)
+    pixel_labels: np.ndarray | None = field(default=None, repr=False)
+    image_shape: tuple[int, int] | None = field(default=None, repr=False)
+
+    def label_image(self) -> np.ndarray | None:
+        """(H, W) int32 labels of the candidate pixels (0 elsewhere), or None if not kept."""
+        if self.labels is not None:
+            return self.labels
+        if self.pixel_index is None or self.pixel_labels is None or self.image_shape is None:
+            return None
+        out = np.zeros(self.image_shape, np.int32)
+        out.reshape(-1)[self.pixel_index] = self.pixel_labels
+        return out
 
     def to_json(self) -> dict[str, Any]:
         """The per-frame JSON object of the ``weatherd detect --jsonl`` contract."""

@@ -184,8 +184,10 @@ def test_config_and_roi_of_another_size_are_accepted(rainy_clip: Path, tmp_path:
 
 
 def test_the_shipped_config_is_valid() -> None:
-    config = cli.load_config(REPO / "config" / "weatherd.toml")
-    cli.detector_params({"detector": config.detector})
+    from daemon.config import detector_params, load_config
+
+    config = load_config(REPO / "config" / "weatherd.toml")
+    detector_params({"detector": config.detector})
     assert config.site.id == "demo"
 
 

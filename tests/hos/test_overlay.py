@@ -25,7 +25,7 @@ def test_blobs_take_their_class_colour(rainy_result):
     out = draw_overlay(gray, result)
     assert out.shape == (*gray.shape, 3) and out.dtype == np.uint8
     assert np.array_equal(gray, before)  # the input is never modified
-    rain_pixels = result.blob_class[result.labels] == BlobClass.RAIN
+    rain_pixels = result.blob_class[result.label_image()] == BlobClass.RAIN
     assert rain_pixels.sum() > 100
     ys, xs = np.nonzero(rain_pixels)
     w = gray.shape[1]
@@ -42,6 +42,7 @@ def test_without_fit_or_labels_it_still_draws():
     assert not result.fit.ok
     out = draw_overlay(gray, result)
     assert out.shape == (180, 320, 3)
-    result.labels = None
+    result.labels = result.pixel_index = None
+    assert result.label_image() is None
     assert draw_overlay(gray, result).shape == (180, 320, 3)
     assert not math.isnan(float(out.mean()))

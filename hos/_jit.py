@@ -1,0 +1,263 @@
+"""Compiled kernels for the per-pixel and per-blob steps between MOG2 and the HOS.
+
+Why compiled code: after OpenCV's MOG2 (the floor of the method), the detector's remaining work
+per frame is many small steps (the photometric rule, the running background, the candidate list,
+the connected components, the moments, the candidate rate). Written as numpy and OpenCV calls,
+each step is cheap but each is a full pass over the image or a call with fixed overhead; together
+they cost about as much again as MOG2 at 960x540 (``docs/figures.md``). numba fuses them into two
+passes: one over the pixels (the photometric rule and the background together) and one over the
+*candidate pixels only* (labelling, moments and the structure rule's rate together).
+
+The readable reference of every kernel stays in the numpy modules (``hos.background``,
+``hos.blobs``, ``hos.moments``); tests prove the kernels equal to it, and the detector falls back
+to it when numba is not installed or ``HOS_JIT=0`` is set in the environment.
+
+The loops below are compiled, not interpreted: they are the per-pixel loops that the house style
+forbids in Python, written once in the one place where a loop is the clearest and fastest form.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+
+import numpy as np
+
+from .moments import _PIXEL_VAR
+
+__all__ = ["ENABLED", "label_sparse", "photometric_candidates"]
+
+log = logging.getLogger(__name__)
+
+try:  # numba is a dependency, but the detector must still run (slower) where it cannot load
+    import numba
+except Exception as exc:
+    numba = None
+    _why = f"numba unavailable ({exc.__class__.__name__}: {exc})"
+else:
+    _why = ""
+
+#: True when the compiled kernels are used (numba imported and ``HOS_JIT`` is not "0").
+ENABLED = numba is not None and os.environ.get("HOS_JIT", "1") != "0"
+if numba is not None and not ENABLED:
+    _why = "HOS_JIT=0"
+
+
+def why_disabled() -> str:
+    """Why the kernels are not used ("" when they are)."""
+    return "" if ENABLED else _why
+
+
+def _njit(fn):
+    if numba is None:
+        return fn
+    return numba.njit(cache=True, nogil=True)(fn)
+
+
+@_njit
+def _photometric_candidates(gray, fg, bg, c, out_index):  # pragma: no cover - compiled
+    n = 0
+    n_fg = 0
+    size = gray.size
+    words = fg[: size - size % 8].view(np.uint64)  # skip background 8 pixels at a time
+    for w in range(words.size + (1 if size % 8 else 0)):
+        if w < words.size and words[w] == 0:
+            continue
+        for i in range(8 * w, min(8 * w + 8, size)):
+            if fg[i] == 0:
+                continue
+            n_fg += 1
+            # eq. 8 against the background as a grey level (OpenCV's convertScaleAbs rounds
+            # half to even and saturates: so does rint here, the background being in [0, 255])
+            level = int(np.rint(bg[i])) + c
+            if gray[i] >= min(level, 255):
+                out_index[n] = i
+                n += 1
+    return n, n_fg
+
+
+def photometric_candidates(
+    gray: np.ndarray, fg: np.ndarray, background: np.ndarray, *, c: int
+) -> tuple[np.ndarray, int]:
+    """Eq. 8 at the foreground pixels; see ``hos.background.photometric_rule``.
+
+    One compiled pass that skips background pixels eight at a time and reads the background
+    at the (few) foreground pixels only.
+
+    Parameters
+    ----------
+    gray, fg : (H, W) uint8, the frame and MOG2's foreground (nonzero = foreground)
+    background : (H, W) float32, C-contiguous, the running background
+    c : grey levels of eq. 8
+
+    Returns
+    -------
+    index : (N,) intp, flat indices ``y * W + x`` of the candidate pixels, ascending
+    n_foreground : pixels in MOG2's foreground
+    """
+    out = np.empty(gray.size, np.intp)
+    n, n_fg = _photometric_candidates(
+        gray.reshape(-1), fg.reshape(-1), background.reshape(-1), int(c), out
+    )
+    return out[:n].copy(), int(n_fg)
+
+
+@_njit
+def _find(parent, k):  # pragma: no cover - compiled
+    root = k
+    while parent[root] != root:
+        root = parent[root]
+    while parent[k] != root:  # path compression
+        nxt = parent[k]
+        parent[k] = root
+        k = nxt
+    return root
+
+
+@_njit
+def _label_sparse(index, width, rate, pixel_var, min_area, max_area):  # pragma: no cover - compiled
+    n = index.size
+    parent = np.arange(n)
+    xs = np.empty(n)
+    ys = np.empty(n)
+    j = 0  # first candidate that may touch the row above the current pixel
+    y = 0
+    row_start = 0
+    for k in range(n):
+        p = index[k]
+        while p >= row_start + width:  # the row, without a division
+            y += 1
+            row_start += width
+        x = p - row_start
+        xs[k] = x
+        ys[k] = y
+        # 8-connectivity with the neighbours met before this pixel in raster order. The
+        # candidates are sorted, so the row above is a run of the list just behind a pointer
+        # that only moves forward: no image-sized table, no random access.
+        # The pixel joins the component of its first neighbour; any other neighbour's component
+        # is merged into the older of the two (a component's root is its first pixel).
+        root = k
+        if x > 0 and k > 0 and index[k - 1] == p - 1:
+            root = _find(parent, k - 1)
+        if y > 0:
+            lo = p - width - (1 if x > 0 else 0)
+            hi = p - width + (1 if x < width - 1 else 0)
+            while j < k and index[j] < lo:
+                j += 1
+            q = j
+            while q < k and index[q] <= hi:
+                other = _find(parent, q)
+                if root == k:
+                    root = other
+                elif other < root:
+                    parent[root] = other
+                    root = other
+                elif other > root:
+                    parent[other] = root
+                q += 1
+        parent[k] = root
+    # Labels 1.. in order of each component's first pixel (its root: a parent always comes
+    # before its child, so one look-up per pixel finds the root); 0 is the background.
+    labels = np.empty(n, np.int32)
+    n_labels = 1
+    for k in range(n):
+        r = parent[parent[k]]
+        parent[k] = r
+        if r == k:
+            labels[k] = n_labels
+            n_labels += 1
+        else:
+            labels[k] = labels[r]
+    # Moments as hos.moments.blob_moments computes them, summed in the same (raster) order:
+    # area, centroid, then central second moments about the centroid (eq. 13).
+    area = np.zeros(n_labels)
+    sx = np.zeros(n_labels)
+    sy = np.zeros(n_labels)
+    srate = np.zeros(n_labels)
+    for k in range(n):
+        lab = labels[k]
+        area[lab] += 1.0
+        sx[lab] += xs[k]
+        sy[lab] += ys[k]
+        if rate.size:
+            srate[lab] += rate[index[k]]
+    inv = np.empty(n_labels)
+    x0 = np.empty(n_labels)
+    y0 = np.empty(n_labels)
+    inv[0] = np.inf
+    x0[0] = np.nan
+    y0[0] = np.nan
+    for lab in range(1, n_labels):
+        inv[lab] = 1.0 / area[lab]
+        x0[lab] = sx[lab] * inv[lab]
+        y0[lab] = sy[lab] * inv[lab]
+    # Second moments and ellipses of the blobs that the size rule can accept only (most blobs
+    # are specks of a pixel or two); the others get NaN.
+    sized = (area >= min_area) & (area <= max_area)
+    s20 = np.zeros(n_labels)
+    s11 = np.zeros(n_labels)
+    s02 = np.zeros(n_labels)
+    for k in range(n):
+        lab = labels[k]
+        if not sized[lab]:
+            continue
+        dx = xs[k] - x0[lab]
+        dy = ys[k] - y0[lab]
+        s20[lab] += dx * dx
+        s11[lab] += dx * dy
+        s02[lab] += dy * dy
+    # Ellipse of each blob, eqs. 14-17, as hos.moments.moments_from_central.
+    m20 = np.full(n_labels, np.nan)
+    m11 = np.full(n_labels, np.nan)
+    m02 = np.full(n_labels, np.nan)
+    theta = np.full(n_labels, np.nan)
+    a = np.full(n_labels, np.nan)
+    b = np.full(n_labels, np.nan)
+    for lab in range(1, n_labels):
+        if not sized[lab]:
+            continue
+        m20[lab] = s20[lab] * inv[lab] + pixel_var
+        m11[lab] = s11[lab] * inv[lab]
+        m02[lab] = s02[lab] * inv[lab] + pixel_var
+        theta[lab] = np.mod(0.5 * np.arctan2(2.0 * m11[lab], m20[lab] - m02[lab]), np.pi)
+        half_trace = 0.5 * (m20[lab] + m02[lab])
+        root = np.sqrt((0.5 * (m20[lab] - m02[lab])) ** 2 + m11[lab] * m11[lab])
+        a[lab] = 2.0 * np.sqrt(half_trace + root)
+        b[lab] = 2.0 * np.sqrt(max(half_trace - root, 0.0))
+    return labels, n_labels, area, x0, y0, m20, m11, m02, theta, a, b, srate
+
+
+def label_sparse(
+    index: np.ndarray,
+    shape: tuple[int, int],
+    rate: np.ndarray | None = None,
+    *,
+    min_area: float = 0.0,
+    max_area: float = np.inf,
+) -> tuple:
+    """8-connected components, moments and ellipses of a sparse candidate set, in one pass.
+
+    Parameters
+    ----------
+    index : (N,) intp, ascending flat indices of the candidate pixels of an image of ``shape``
+    rate : (H * W,) float32, optional; its sum over each blob is returned
+    min_area, max_area : second moments and ellipses are computed only for the blobs whose area
+        is in this range (the size rule's); the others get NaN
+
+    Returns
+    -------
+    pixel_labels (N,) int32 (1..n_labels-1, in order of each blob's first pixel),
+    n_labels (including 0), then (n_labels,) float64: area, x0, y0, m20, m11, m02 (eq. 13, with
+    the pixel's own 1/12), theta, a, b (eqs. 14-17) as :func:`hos.moments.blob_moments`, and the
+    sum of ``rate`` over the blob.
+    """
+    empty = np.zeros(0, np.float32)
+    index = np.ascontiguousarray(index, dtype=np.intp)
+    return _label_sparse(
+        index,
+        shape[1],
+        empty if rate is None else rate,
+        _PIXEL_VAR,
+        float(min_area),
+        float(max_area),
+    )
