@@ -49,9 +49,16 @@ def why_disabled() -> str:
 
 
 def _njit(fn):
+    """``numba.njit`` with the GIL released and machine code cached on disk (next to this file,
+    or in ``NUMBA_CACHE_DIR``); without a writable cache the kernels are compiled at each start
+    (a few seconds). Without numba, ``fn`` itself (the callers then use the numpy path)."""
     if numba is None:
         return fn
-    return numba.njit(cache=True, nogil=True)(fn)
+    try:
+        return numba.njit(cache=True, nogil=True)(fn)
+    except RuntimeError as exc:  # "cannot cache function ...: no locator available"
+        log.warning("numba cannot cache %s (%s); it is compiled at each start", fn.__name__, exc)
+        return numba.njit(nogil=True)(fn)
 
 
 @_njit
@@ -59,20 +66,24 @@ def _photometric_candidates(gray, fg, bg, c, out_index):  # pragma: no cover - c
     n = 0
     n_fg = 0
     size = gray.size
-    words = fg[: size - size % 8].view(np.uint64)  # skip background 8 pixels at a time
-    for w in range(words.size + (1 if size % 8 else 0)):
-        if w < words.size and words[w] == 0:
+    whole = size - size % 8
+    words = fg[:whole].view(np.uint64)
+    for w in range(words.size):
+        if words[w] == 0:  # eight background pixels at once
             continue
-        for i in range(8 * w, min(8 * w + 8, size)):
-            if fg[i] == 0:
-                continue
-            n_fg += 1
-            # eq. 8 against the background as a grey level (OpenCV's convertScaleAbs rounds
-            # half to even and saturates: so does rint here, the background being in [0, 255])
-            level = int(np.rint(bg[i])) + c
-            if gray[i] >= min(level, 255):
-                out_index[n] = i
-                n += 1
+        # Branch-free within the word (the foreground bytes are unpredictable): always write
+        # the index, advance only for a candidate. eq. 8, saturating at 255 as
+        # photometric_rule does.
+        for i in range(8 * w, 8 * w + 8):
+            f = fg[i] != 0
+            n_fg += f
+            out_index[n] = i
+            n += f & (gray[i] >= min(int(bg[i]) + c, 255))
+    for i in range(whole, size):
+        f = fg[i] != 0
+        n_fg += f
+        out_index[n] = i
+        n += f & (gray[i] >= min(int(bg[i]) + c, 255))
     return n, n_fg
 
 
@@ -87,7 +98,7 @@ def photometric_candidates(
     Parameters
     ----------
     gray, fg : (H, W) uint8, the frame and MOG2's foreground (nonzero = foreground)
-    background : (H, W) float32, C-contiguous, the running background
+    background : (H, W) uint8, C-contiguous, the running background as grey levels
     c : grey levels of eq. 8
 
     Returns

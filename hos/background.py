@@ -24,6 +24,7 @@ from .params import SegmentationParams
 __all__ = [
     "FrameDiffSegmenter",
     "MogSegmenter",
+    "PhotometricRule",
     "create_mog2",
     "frame_difference_rule",
     "mask_to_index",
@@ -84,42 +85,62 @@ BACKGROUND_BANDS = 4
 
 
 class MogSegmenter:
-    """MoG foreground + photometric rule; ``apply(gray) -> candidate pixels``.
+    """The MoG background model (eqs. 3-6): ``model(gray) -> foreground mask``."""
 
-    ``compiled``: run the photometric rule and the running background as one compiled pass
-    (``hos._jit``; the same result as the OpenCV calls, tests/hos/test_jit.py). None uses it
-    when numba is available.
-    """
-
-    def __init__(self, params: SegmentationParams, *, compiled: bool | None = None) -> None:
+    def __init__(self, params: SegmentationParams) -> None:
         self.params = params
         self._mog = create_mog2(params)
-        self._compiled = _jit.ENABLED if compiled is None else compiled and _jit.ENABLED
-        self._background: np.ndarray | None = None  # float32 running background
-        self._background_u8: np.ndarray | None = None
-        self._band = 0
         self.delay = 0
         #: Fraction of the image in MoG's foreground at the last frame (scene-change check).
         self.foreground_fraction = 0.0
 
-    def apply(self, gray: np.ndarray, *, learning_rate: float = -1.0) -> np.ndarray:
-        """Candidate pixels of ``gray``, (N,) intp ascending flat indices; updates the model.
+    def model(self, gray: np.ndarray, *, learning_rate: float = -1.0) -> np.ndarray:
+        """(H, W) uint8 foreground of ``gray`` (255 = foreground); updates the model.
 
         ``learning_rate`` < 0 lets MOG2 use ``1 / min(frames seen, history)``.
         """
         fg = self._mog.apply(gray, learningRate=learning_rate)
-        if self._background is None:
-            self.foreground_fraction = cv2.countNonZero(fg) / fg.size
+        self.foreground_fraction = cv2.countNonZero(fg) / fg.size
+        return fg
+
+
+class PhotometricRule:
+    """Eq. 8 against a running background: ``candidates(gray, fg) -> candidate pixels``.
+
+    The background is the running average of the frames off the foreground, learnt here
+    because MOG2 does not expose its means cheaply (``getBackgroundImage`` costs as much as
+    a quarter of MOG2 itself).
+
+    ``compiled``: read the background at the foreground pixels only, in one compiled pass
+    (``hos._jit``; the same candidates as the OpenCV calls, tests/hos/test_jit.py). None uses
+    it when numba is available.
+    """
+
+    def __init__(self, params: SegmentationParams, *, compiled: bool | None = None) -> None:
+        self.params = params
+        self._compiled = _jit.ENABLED if compiled is None else compiled and _jit.ENABLED
+        self._background: np.ndarray | None = None  # float32 running background
+        self._background_u8: np.ndarray | None = None
+        self._band = 0
+
+    def candidates(
+        self, gray: np.ndarray, fg: np.ndarray, *, learning_rate: float = -1.0
+    ) -> np.ndarray:
+        """Candidate pixels of ``gray``, (N,) intp ascending flat indices; learns the background.
+
+        ``fg``: the background model's foreground. ``learning_rate`` >= 0 while the model
+        relearns a changed scene (the background follows at least as fast), else the
+        ``background_rate`` parameter.
+        """
+        if self._background is None or self._background.shape != gray.shape:
             self._background = gray.astype(np.float32)
             self._background_u8 = gray.copy()
             return np.zeros(0, np.intp)
         c = round(self.params.photometric_c)
         rate = self.params.background_rate if learning_rate < 0 else max(learning_rate, 0.02)
         if self._compiled:
-            index, n_fg = _jit.photometric_candidates(gray, fg, self._background, c=c)
-            self.foreground_fraction = n_fg / fg.size
+            index, _ = _jit.photometric_candidates(gray, fg, self._background_u8, c=c)
         else:
-            self.foreground_fraction = cv2.countNonZero(fg) / fg.size
             index = mask_to_index(photometric_rule(gray, self._background_u8, fg, c=c))
         self._update_background(gray, fg, rate)
         return index
@@ -142,12 +163,11 @@ class MogSegmenter:
         band = self._background[lo:hi]  # rows of a C-contiguous image: updated in place
         compounded = 1.0 - (1.0 - rate) ** bands
         cv2.accumulateWeighted(gray[lo:hi], band, compounded, mask=cv2.bitwise_not(fg[lo:hi]))
-        if not self._compiled:  # the compiled rule rounds the float image itself
-            self._background_u8[lo:hi] = cv2.convertScaleAbs(band)
+        self._background_u8[lo:hi] = cv2.convertScaleAbs(band)
 
 
 class FrameDiffSegmenter:
-    """Eq. 32 with one frame of delay: ``apply(I_{n+1})`` returns the candidates of frame n."""
+    """Eq. 32 with one frame of delay: ``model(I_{n+1})`` returns the mask of frame n."""
 
     def __init__(self, params: SegmentationParams) -> None:
         self.params = params
@@ -155,12 +175,15 @@ class FrameDiffSegmenter:
         self.delay = 1
         self.foreground_fraction = 0.0
 
-    def apply(self, gray: np.ndarray, *, learning_rate: float = -1.0) -> np.ndarray:
+    def model(self, gray: np.ndarray, *, learning_rate: float = -1.0) -> np.ndarray:
+        """(H, W) uint8, 255 where eq. 32 holds for the previous frame."""
         del learning_rate  # no model to learn
         self._frames.append(gray)
         if len(self._frames) > 3:
             self._frames.pop(0)
         if len(self._frames) < 3:
-            return np.zeros(0, np.intp)
+            return np.zeros_like(gray)
         prev, cur, nxt = self._frames
-        return mask_to_index(frame_difference_rule(prev, cur, nxt, c=self.params.photometric_c))
+        mask = frame_difference_rule(prev, cur, nxt, c=self.params.photometric_c)
+        self.foreground_fraction = cv2.countNonZero(mask) / mask.size
+        return mask

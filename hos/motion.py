@@ -119,7 +119,8 @@ def exposure_gain(frame: np.ndarray, background: np.ndarray) -> float:
     ----------
     frame, background : (h, w) float32 reduced images
     """
-    frame, background = frame[::2, ::2], background[::2, ::2]  # a median needs few samples
+    # A median needs few samples: every 4th pixel of every 4th row (~2,000 at any frame size).
+    frame, background = frame[::4, ::4], background[::4, ::4]
     valid = (frame > 12.0) & (frame < 243.0) & (background > 12.0) & (background < 243.0)
     if np.count_nonzero(valid) < 0.1 * frame.size:
         return 1.0

@@ -29,7 +29,7 @@ import numpy as np
 
 from . import _jit
 from .angles import wrap_diff, wrapped_normal_pdf
-from .background import FrameDiffSegmenter, MogSegmenter
+from .background import FrameDiffSegmenter, MogSegmenter, PhotometricRule, mask_to_index
 from .blobs import CandidateRate, blob_mean_rate, find_blobs_sparse, size_rule, structure_rule
 from .histogram import hos_histogram
 from .mixture import fit_mixture
@@ -41,6 +41,7 @@ from .smoothing import ParameterSmoother
 
 if _jit.ENABLED:
     from ._jit_mixture import fit_mixture_jit
+    from ._jit_motion import global_translation_jit
 
 __all__ = ["HosDetector", "Segmented", "classify_blobs"]
 
@@ -69,22 +70,30 @@ class Segmented:
 
     The two stages share no mutable state, so a caller may run ``segment`` of frame n+1 on a
     worker thread while ``analyse`` of frame n runs (``daemon.detection`` does).
+    ``segment`` does only what the background model needs (the exposure gain) and the model
+    itself; everything that can wait for the model's foreground is done by ``analyse``, so that
+    the thread running MOG2, whose cost is the floor of the method, does little else.
     """
 
     frame: int
     t_s: float
+    #: warming_up, scene_change, dark or ok (``analyse`` adds unstable)
     state: str
-    #: (N,) intp, ascending flat indices ``y * W + x`` of the candidate pixels, restricted to
-    #: the region of interest
-    candidates: np.ndarray
-    #: (H, W) of the frame
-    shape: tuple[int, int]
-    candidate_fraction: float
-    #: No rain evidence either way (warming up, scene change, camera offset this frame)
-    hold: bool
-    motion_px: float
+    #: (H, W) uint8, the frame as the background model saw it (exposure gain undone)
+    image: np.ndarray
+    #: (H, W) uint8, the background model's foreground (or the frame difference rule's mask)
+    foreground: np.ndarray
+    #: (h, w) float32, the reduced, exposure-corrected frame (for the camera-motion estimate)
+    small: np.ndarray
     gain: float
     brightness: float
+    #: learning rate given to the background model (< 0: its own), for the running background
+    learning_rate: float
+    #: the region of interest: (H * W,) bool or None, its area in pixels, and the reduction
+    #: factor of ``small``
+    roi: np.ndarray | None
+    roi_area: int
+    scale: int
 
 
 class HosDetector:
@@ -116,7 +125,10 @@ class HosDetector:
         # analyse()'s state: the per-pixel candidate rate and the Kalman filter
         self._smoother = ParameterSmoother(self.params.decision)
         self._rate: CandidateRate | None = None
+        self._photometric: PhotometricRule | None = None
         self._rate_frames = 0  # frames analysed since the rate map was (re)made
+        self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
+        self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._last_fit: tuple[float, float, float] | None = None
 
     # -- the frame -----------------------------------------------------------------------
@@ -133,17 +145,11 @@ class HosDetector:
     # -- stage 1: global measurements and candidate pixels -----------------------------------
     def _reset_segmentation(self) -> None:
         seg = self.params.segmentation
-        self._segmenter = (
-            MogSegmenter(seg, compiled=self.compiled)
-            if seg.method == "mog"
-            else FrameDiffSegmenter(seg)
-        )
+        self._segmenter = MogSegmenter(seg) if seg.method == "mog" else FrameDiffSegmenter(seg)
         self._frames_seen = 0
         self._relearn = 0
-        self._ref_small: np.ndarray | None = None
         self._bg_small: np.ndarray | None = None
         self._gain = 1.0
-        self._moving = 0.0
 
     def _setup(self, shape: tuple[int, int]) -> None:
         self._shape = shape
@@ -163,7 +169,7 @@ class HosDetector:
         self._roi_small = None if self._roi is None else reduce(self._roi, self._scale) > 127
 
     def segment(self, gray: np.ndarray, t_s: float) -> Segmented:
-        """Steps 1-2: global measurements, exposure, background model, candidate pixels."""
+        """Steps 1-2a: brightness, exposure gain, background model (foreground pixels)."""
         gray = _as_gray(gray)
         self._index += 1
         if gray.shape != self._shape:
@@ -178,46 +184,31 @@ class HosDetector:
         in_roi = small if self._roi_small is None else small[self._roi_small]
         brightness = float(in_roi.mean()) if in_roi.size else 0.0
         frame, corrected_small = self._compensate_exposure(gray, small)
-        # Edges light up in the foreground in proportion to the camera's offset from where the
-        # background model learnt it, not to the frame-to-frame motion: measure the offset
-        # against a reference image that learns about as slowly as the model (on the
-        # exposure-corrected image, so that a gain step is not read as motion).
-        motion_px = 0.0
-        if self._ref_small is None:
-            self._ref_small = corrected_small.copy()
-        else:
-            dx, dy = global_translation(self._ref_small, corrected_small)
-            motion_px = math.hypot(dx, dy) * self._scale
-            cv2.accumulateWeighted(corrected_small, self._ref_small, 1.0 / rob.reference_frames)
-        moved = motion_px > rob.motion_frame_px
-        k = 1.0 / rob.motion_window_frames
-        self._moving += k * (float(moved) - self._moving)
 
-        # 2. candidate pixels
+        # 2a. the background model
         learning_rate = 0.05 if self._relearn > 0 else -1.0
         self._relearn = max(self._relearn - 1, 0)
-        candidates = self._segmenter.apply(frame, learning_rate=learning_rate)
-        foreground_fraction = self._segmenter.foreground_fraction
-        if self._roi_flat is not None:
-            candidates = candidates[self._roi_flat[candidates]]
-        candidate_fraction = candidates.size / self._roi_area
-        if (
-            self._frames_seen > rob.warmup_frames
-            and max(candidate_fraction, foreground_fraction) > rob.scene_change_fraction
-        ):
+        foreground = self._segmenter.model(frame, learning_rate=learning_rate)
+        changed = self._segmenter.foreground_fraction
+        if self._roi is not None and self._segmenter.delay == 0:
+            # the candidates are foreground pixels of the ROI: their fraction is at most this
+            in_roi_fg = cv2.countNonZero(cv2.bitwise_and(foreground, self._roi))
+            changed = max(changed, in_roi_fg / self._roi_area)
+        if self._frames_seen > rob.warmup_frames and changed > rob.scene_change_fraction:
             self._relearn = rob.warmup_frames
-        state = self._state(brightness)
         return Segmented(
             frame=self._index,
             t_s=float(t_s),
-            state=state,
-            candidates=candidates,
-            shape=self._shape,
-            candidate_fraction=candidate_fraction,
-            hold=state in (State.WARMING_UP, State.SCENE_CHANGE) or moved,
-            motion_px=motion_px,
+            state=self._state(brightness),
+            image=frame,
+            foreground=foreground,
+            small=corrected_small,
             gain=self._gain,
             brightness=brightness,
+            learning_rate=learning_rate,
+            roi=self._roi_flat,
+            roi_area=self._roi_area,
+            scale=self._scale,
         )
 
     def _state(self, brightness: float) -> str:
@@ -228,8 +219,6 @@ class HosDetector:
             return State.SCENE_CHANGE
         if brightness < rob.dark_level:
             return State.DARK
-        if self._moving > rob.motion_unstable_fraction:
-            return State.UNSTABLE
         return State.OK
 
     def _compensate_exposure(
@@ -257,15 +246,40 @@ class HosDetector:
 
     # -- stage 2: blobs, HOS, mixture, decision, rain pixels, intensity ----------------------
     def analyse(self, seg: Segmented) -> FrameResult:
-        """Steps 3-8 on the candidates of one frame (call in frame order)."""
+        """Steps 2b-8 of one frame (call in frame order): camera motion, candidate pixels,
+        blobs, HOS, mixture, decision, rain pixels, intensity."""
         p = self.params
         rob = p.robustness
-        candidates = seg.candidates
-        h = seg.shape[0]
-        if self._rate is None or self._rate.shape != seg.shape:
-            self._rate = CandidateRate(seg.shape, rob.persistence_frames)
+        shape = seg.foreground.shape
+        h = shape[0]
+        if self._rate is None or self._rate.shape != shape:
+            self._rate = CandidateRate(shape, rob.persistence_frames)
             self._rate_frames = 0
+            self._photometric = PhotometricRule(p.segmentation, compiled=self.compiled)
+            self._ref_small = None
+            self._moving = 0.0
         self._rate_frames += 1
+
+        # 1b. camera motion (beyond the paper)
+        motion_px = self._camera_offset(seg.small) * seg.scale
+        moved = motion_px > rob.motion_frame_px
+        k = 1.0 / rob.motion_window_frames
+        self._moving += k * (float(moved) - self._moving)
+        state = seg.state
+        if state == State.OK and self._moving > rob.motion_unstable_fraction:
+            state = State.UNSTABLE
+        hold = state in (State.WARMING_UP, State.SCENE_CHANGE) or moved
+
+        # 2b. candidate pixels
+        if p.segmentation.method == "mog":
+            candidates = self._photometric.candidates(
+                seg.image, seg.foreground, learning_rate=seg.learning_rate
+            )
+        else:  # the frame difference rule's mask is the candidates
+            candidates = mask_to_index(seg.foreground)
+        if seg.roi is not None:
+            candidates = candidates[seg.roi[candidates]]
+        candidate_fraction = candidates.size / seg.roi_area
         area_scale = (h / p.segmentation.size_reference_height) ** 2
         min_area = p.segmentation.min_area * area_scale
         max_area = p.segmentation.max_area * area_scale
@@ -273,7 +287,7 @@ class HosDetector:
         # 3. blobs, size rule, structure rule
         blobs = find_blobs_sparse(
             candidates,
-            seg.shape,
+            shape,
             rate=self._rate,
             min_area=min_area,
             max_area=max_area,
@@ -287,11 +301,11 @@ class HosDetector:
             ratio=rob.persistence_ratio,
         )
         if self._rate_frames > rob.warmup_frames // 2 and (
-            seg.candidate_fraction <= rob.scene_change_fraction
+            candidate_fraction <= rob.scene_change_fraction
         ):
             # Not while the background model is still learning, nor on a frame that changed
             # as a whole: that foreground says nothing about what recurs in place.
-            self._rate.update(candidates, seg.candidate_fraction)
+            self._rate.update(candidates, candidate_fraction)
         sized = size_rule(mom.area, min_area=min_area, max_area=max_area)
         sized[0] = False
         accepted = sized & ~structural
@@ -330,10 +344,10 @@ class HosDetector:
 
         # 6. decision
         dp = p.decision
-        if seg.hold:
+        if hold:
             smoothed = self._smoother.hold()
         elif (
-            seg.state == State.OK
+            state == State.OK
             and fit.ok
             and fit.gof_ok
             and idx.size >= dp.min_blobs
@@ -343,7 +357,7 @@ class HosDetector:
             smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma))
         else:
             smoothed = self._smoother.update(None)
-        rain = smoothed.rain and seg.state == State.OK
+        rain = smoothed.rain and state == State.OK
 
         # 7. rain pixels
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
@@ -369,7 +383,7 @@ class HosDetector:
             frame=seg.frame,
             t_s=seg.t_s,
             rain=rain,
-            state=seg.state,
+            state=state,
             fit=fit,
             pi_smoothed=smoothed.pi,
             mu_smoothed=smoothed.mu,
@@ -379,17 +393,34 @@ class HosDetector:
             n_blobs=int(idx.size),
             n_rain_blobs=int(np.count_nonzero(is_rain)),
             histogram=hist,
-            motion_px=seg.motion_px,
+            motion_px=motion_px,
             gain=seg.gain,
             brightness=seg.brightness,
-            candidate_fraction=seg.candidate_fraction,
+            candidate_fraction=candidate_fraction,
             n_structural_blobs=int(np.count_nonzero(sized & structural)),
             labels=blobs.labels,
             blob_class=blob_class,
             pixel_index=blobs.index,
             pixel_labels=blobs.pixel_labels,
-            image_shape=seg.shape,
+            image_shape=shape,
         )
+
+    def _camera_offset(self, small: np.ndarray) -> float:
+        """The camera's offset from where the background model learnt the scene, in pixels of
+        the reduced image ``small``.
+
+        Edges light up in the foreground in proportion to this offset, not to the frame-to-frame
+        motion: it is measured against a reference image that learns about as slowly as the
+        model (on the exposure-corrected image, so that a gain step is not read as motion).
+        """
+        if self._ref_small is None or self._ref_small.shape != small.shape:
+            self._ref_small = small.copy()
+            return 0.0
+        translation = global_translation_jit if self.compiled else global_translation
+        dx, dy = translation(self._ref_small, small)
+        rate = 1.0 / self.params.robustness.reference_frames
+        cv2.accumulateWeighted(small, self._ref_small, rate)
+        return math.hypot(dx, dy)
 
     def _merge_correction(
         self, area: np.ndarray, accepted: np.ndarray, structural: np.ndarray, max_area: float

@@ -42,7 +42,8 @@ def test_photometric_candidates_equal_the_opencv_rule(seed):
     background = (rng.random((h, w)) * 260.0 - 2.0).clip(0, 255).astype(np.float32)
     background[0, :5] = 254.6  # saturating threshold: 255 + c caps at 255
     gray[0, :5] = 255
-    reference = mask_to_index(photometric_rule(gray, cv2.convertScaleAbs(background), fg, c=3))
+    background = cv2.convertScaleAbs(background)
+    reference = mask_to_index(photometric_rule(gray, background, fg, c=3))
     index, n_fg = _jit.photometric_candidates(gray, fg, background, c=3)
     np.testing.assert_array_equal(index, reference)
     assert n_fg == np.count_nonzero(fg)
