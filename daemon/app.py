@@ -31,7 +31,7 @@ import numpy as np
 from drivers.errors import ConfigError, InputError
 from drivers.frames import FrameSource, LiveFrame, mask_credentials, open_source
 from drivers.video import read_roi_mask, roi_for_size
-from hos import FrameResult, HosDetector
+from hos import FrameResult, HosDetector, _jit
 from hos.overlay import draw_overlay
 from hos.params import DetectorParams
 
@@ -419,11 +419,12 @@ class Daemon:
             log.info("camera %s: %s", cam.id, mask_credentials(cam.source))
         stack.callback(self.stop.set)  # runs first on the way out: every loop ends
         log.info(
-            "site %s: %d camera(s), Zenoh %s, recording %s",
+            "site %s: %d camera(s), Zenoh %s, recording %s, detector kernels %s",
             self.site,
             len(self.pipelines),
             f"{cfg.zenoh.mode}" if cfg.zenoh.enabled else "off",
             self.recording_dir if self.recorder is not None else "off",
+            "compiled" if _jit.ENABLED else f"numpy ({_jit.why_disabled()})",
         )
         sdnotify.notify("READY=1", f"STATUS=watching {len(self.pipelines)} camera(s)")
 

@@ -246,6 +246,8 @@ assert (a @ a).shape == (300, 300)
 det = HosDetector()
 for i, (gray, _) in enumerate(itertools.islice(demo_frames(320, 180, 25, seed=0), 30)):
     det.process(gray, i / 25)
+from hos import _jit  # numba's compiled kernels need W+X memory: the numpy path runs instead
+assert not det.compiled and "executable memory" in _jit.why_disabled(), _jit.why_disabled()
 values = (ctypes.c_int * 3)(3, 1, 2)  # a ctypes callback: libffi closure memory
 cmp = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int))
 ctypes.CDLL(None).qsort(values, 3, 4, cmp(lambda x, y: x[0] - y[0]))
