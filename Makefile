@@ -12,6 +12,9 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test]'
+	@# Compile the detector's numba kernels into their on-disk cache now (a few seconds, once),
+	@# not during the first run.
+	$(BIN)/python -c "import hos._jit as j; print(f'detector kernels ready ({j.warm_up():.1f} s)')"
 	touch $(STAMP)
 
 run: install

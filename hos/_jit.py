@@ -20,12 +20,13 @@ from __future__ import annotations
 
 import logging
 import os
+import time
 
 import numpy as np
 
 from .moments import _PIXEL_VAR
 
-__all__ = ["ENABLED", "label_sparse", "photometric_candidates"]
+__all__ = ["ENABLED", "label_sparse", "photometric_candidates", "warm_up", "why_disabled"]
 
 log = logging.getLogger(__name__)
 
@@ -272,3 +273,31 @@ def label_sparse(
         float(min_area),
         float(max_area),
     )
+
+
+def warm_up() -> float:
+    """Compile every kernel now, or load it from numba's on-disk cache; the seconds it took.
+
+    The first call of a kernel in a process compiles it (a few seconds each, once per install:
+    the machine code is then cached) or loads it (about 0.3 s for the first, a few ms for the
+    others). ``make install`` calls this so that the first run does not pay the compilation.
+    The arguments have the types the detector passes, so the same compiled code is used.
+    """
+    if not ENABLED:
+        return 0.0
+    from ._jit_mixture import fit_mixture_jit
+    from ._jit_motion import global_translation_jit
+
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(0)
+    shape = (30, 40)
+    gray = rng.integers(0, 256, shape, dtype=np.uint8)
+    fg = np.where(gray > 128, 255, 0).astype(np.uint8)
+    index, _ = photometric_candidates(gray, fg, gray // 2, c=3)
+    label_sparse(index, shape, np.zeros(gray.size, np.float32), min_area=4.0, max_area=50.0)
+    label_sparse(index, shape, None, min_area=4.0, max_area=50.0)
+    theta = np.arange(180) * (np.pi / 180)
+    fit_mixture_jit(1.0 + 10.0 * np.exp(-0.5 * ((theta - 1.2) / 0.1) ** 2))
+    small = rng.random(shape, dtype=np.float32) * 255
+    global_translation_jit(small, np.roll(small, 1, axis=1))
+    return time.perf_counter() - t0

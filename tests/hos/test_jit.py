@@ -176,3 +176,21 @@ def test_hos_jit_0_turns_the_kernels_off():
         check=True,
     ).stdout
     assert out.split() == ["False", "False", "HOS_JIT=0"]
+
+
+@needs_jit
+def test_warm_up_compiles_every_kernel_the_detector_calls():
+    """After warm_up(), a detector's first frames compile nothing new (same argument types)."""
+    from hos._jit_mixture import _fit
+    from hos._jit_motion import _fit_translation
+
+    kernels = (_jit._photometric_candidates, _jit._label_sparse, _fit, _fit_translation)
+    _jit.warm_up()
+    before = [len(k.signatures) for k in kernels]
+    assert all(before)
+    params = SceneParams(rain=StreakParams(mu_deg=70), schedule=[0] * 62 + [1])
+    scene = Scene(320, 180, seed=1, params=params)
+    det = HosDetector(compiled=True)
+    for i in range(70):
+        det.process(scene.frame(i)[0], i / 25)
+    assert [len(k.signatures) for k in kernels] == before
