@@ -23,29 +23,30 @@ Files
     merged message by message. A damaged or unfinished file (no summary section) is skipped with
     a warning — ``weatherd recover`` repairs it; an error in the middle of a file stops that file
     (what was read is kept) with a warning.
+
+The frames are read by :mod:`daemon.offline.mcap_frames` (:func:`find_mcap_files`,
+:func:`iter_frames`) and the mean histograms computed by :mod:`daemon.offline.histograms`
+(:func:`mean_histograms`); both are re-exported here.
 """
 
 from __future__ import annotations
 
-import heapq
 import itertools
-import json
 import logging
 import math
 import os
-import struct
-import sys
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
-from mcap.exceptions import McapError
-from mcap.reader import make_reader
 
 from drivers.errors import InputError
+
+from .histograms import mean_histograms
+from .mcap_frames import find_mcap_files, iter_frames
 
 __all__ = [
     "GOF_GRID",
@@ -69,7 +70,6 @@ PI_GRID: np.ndarray = np.round(np.linspace(0.0, 1.0, 51), 4)
 GOF_GRID: np.ndarray = np.round(np.linspace(0.0, 0.3, 61), 4)
 
 _FLUSH = 8192  # frames buffered per interval and camera before their counts are updated
-_DAMAGED = (McapError, struct.error, ValueError, EOFError, RuntimeError, OSError, KeyError)
 
 
 class ReferenceInterval(Protocol):
@@ -229,178 +229,6 @@ class Series:
                 f"(cameras seen: {', '.join(self.cameras)})"
             )
         return camera
-
-
-# ---------------------------------------------------------------------------------------------
-# Reading
-
-
-def find_mcap_files(paths: Iterable[str | os.PathLike[str]]) -> list[Path]:
-    """Expand files and directories (recursively, ``*.mcap``) into a sorted, de-duplicated list.
-
-    Raises
-    ------
-    InputError : a path does not exist, or no MCAP file is found.
-    """
-    found: dict[Path, None] = {}
-    for raw in paths:
-        path = Path(raw)
-        if path.is_dir():
-            for p in sorted(path.rglob("*.mcap")):
-                if p.is_file():
-                    found[p.resolve()] = None
-        elif path.is_file():
-            found[path.resolve()] = None
-        else:
-            raise InputError(f"{path}: no such file or directory")
-    if not found:
-        raise InputError(f"no *.mcap file in {', '.join(str(p) for p in paths)}")
-    return list(found)
-
-
-def iter_frames(
-    paths: Iterable[str | os.PathLike[str]],
-    *,
-    camera: str | None = None,
-    progress: bool | None = None,
-    skipped: list[str] | None = None,
-    opened: list[Path] | None = None,
-) -> Iterator[dict[str, Any]]:
-    """Stream the ``/hos/<cam>/frame`` payloads of MCAP files in time order.
-
-    Parameters
-    ----------
-    paths : files or directories (see :func:`find_mcap_files`)
-    camera : only this camera's frames; None: every camera
-    progress : a progress bar over the files on stderr; None: only when stderr is a terminal
-    skipped : if given, the paths of the damaged files skipped are appended to it
-    opened : if given, the paths of the files read are appended to it
-
-    Yields
-    ------
-    dict : the decoded ``hos.frame/1`` JSON object; ``t_ns`` is always set (from the message's
-        log time when the payload has none). A payload that is not JSON is logged and skipped.
-
-    Raises
-    ------
-    InputError : see :func:`find_mcap_files`.
-    """
-    files = find_mcap_files(paths)
-    spans = []
-    for path in files:
-        span = _time_span(path)
-        if span is None:
-            log.warning(
-                "%s: unfinished or damaged MCAP file, skipped (repair it with weatherd recover)",
-                path,
-            )
-            if skipped is not None:
-                skipped.append(str(path))
-            continue
-        spans.append((span, path))
-    spans.sort(key=lambda item: (item[0][0], str(item[1])))
-    bar = _progress_bar(len(spans), enabled=progress)
-    try:
-        for group in _overlapping(spans):
-            if opened is not None:
-                opened.extend(group)
-            streams = [_file_frames(p, camera, rank) for rank, p in enumerate(group)]
-            stream = streams[0] if len(streams) == 1 else heapq.merge(*streams)
-            for *_, frame in stream:
-                yield frame
-            if bar is not None:
-                bar.update(len(group))
-    finally:
-        if bar is not None:
-            bar.close()
-
-
-def _time_span(path: Path) -> tuple[int, int] | None:
-    """(first, last) message log time of a finished file, ns; None when it cannot be read."""
-    try:
-        with open(path, "rb") as f:
-            summary = make_reader(f).get_summary()
-    except _DAMAGED:
-        return None
-    if summary is None:
-        return None
-    stats = summary.statistics
-    if stats is None or stats.message_count == 0:
-        return (0, 0)
-    return (int(stats.message_start_time), int(stats.message_end_time))
-
-
-def _overlapping(spans: list[tuple[tuple[int, int], Path]]) -> Iterator[list[Path]]:
-    """Groups of files whose time ranges overlap (to be merged), in time order."""
-    group: list[Path] = []
-    group_end = -1
-    for (start, end), path in spans:
-        if group and start > group_end:
-            yield group
-            group, group_end = [], -1
-        group.append(path)
-        group_end = max(group_end, end)
-    if group:
-        yield group
-
-
-def _file_frames(
-    path: Path, camera: str | None, rank: int
-) -> Iterator[tuple[int, int, int, dict[str, Any]]]:
-    """(log time, rank, sequence, payload) of the frame messages of one file, in file order.
-
-    ``rank`` and the sequence number break ties when files are merged; an error ends the file
-    with a warning.
-    """
-    bad = 0
-    try:
-        with open(path, "rb") as f:
-            reader = make_reader(f)
-            summary = reader.get_summary()
-            topics = sorted(
-                {
-                    ch.topic
-                    for ch in (summary.channels.values() if summary else ())
-                    if _is_frame_topic(ch.topic, camera)
-                }
-            )
-            if not topics:
-                return
-            # file order: the daemon writes in time order, and the log-time heap of the mcap
-            # reader costs a quarter of the reading time; aggregate() tolerates small jitter
-            messages = reader.iter_messages(topics=topics, log_time_order=False)
-            for seq, (_, _, message) in enumerate(messages):
-                try:
-                    payload = json.loads(message.data)
-                except ValueError:
-                    bad += 1
-                    continue
-                if not isinstance(payload, dict):
-                    bad += 1
-                    continue
-                payload.setdefault("t_ns", message.log_time)
-                yield int(message.log_time), rank, seq, payload
-    except _DAMAGED as exc:
-        log.warning("%s: damaged after some messages, rest of the file skipped (%s)", path, exc)
-    if bad:
-        log.warning("%s: %d frame messages are not JSON objects, skipped", path, bad)
-
-
-def _is_frame_topic(topic: str, camera: str | None) -> bool:
-    parts = topic.split("/")
-    if len(parts) != 4 or parts[0] != "" or parts[1] != "hos" or parts[3] != "frame":
-        return False
-    return camera is None or parts[2] == camera
-
-
-def _progress_bar(total: int, *, enabled: bool | None):
-    if enabled is None:
-        enabled = sys.stderr.isatty()
-    if not enabled or total == 0:
-        return None
-    from tqdm import tqdm
-
-    return tqdm(total=total, desc="MCAP files", unit="file", leave=False)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -720,103 +548,6 @@ def load_series(
         reference=ref_name,
         station=station or (stations[0] if len(stations) == 1 else None),
     )
-
-
-# ---------------------------------------------------------------------------------------------
-# Histograms at chosen moments (a second, indexed pass over a few time windows only)
-
-
-def mean_histograms(
-    mcap_files: Sequence[str | os.PathLike[str]],
-    windows: Sequence[tuple[int, int]],
-    *,
-    camera: str,
-    samples: int = 12,
-    sample_s: float = 10.0,
-) -> list[dict[str, Any] | None]:
-    """Mean HOS of ``camera`` over each time window, from ``/hos/<cam>/histogram``.
-
-    Only the chunks that overlap a window are read (the MCAP index), so a handful of windows
-    costs little even in months of logs. A window longer than ``samples`` × ``sample_s`` is
-    averaged over ``samples`` evenly spaced stretches of ``sample_s`` seconds (an hour at 25 fps
-    is 90,000 histograms: 3,000 are plenty for a mean).
-
-    Parameters
-    ----------
-    mcap_files : finished MCAP files (damaged ones are skipped)
-    windows : [start, end) in UTC ns
-    camera : camera id
-    samples, sample_s : how long windows are sampled: count and length (s) of the stretches
-
-    Returns
-    -------
-    per window, None when it holds no histogram, else a dict: ``histogram`` (bins,) float mean
-    HOS (the unnormalised h(θ) of eq. 20), ``bin_width_deg``, ``frames``, and the mean fitted
-    mixture of the frames that have one: ``pi`` (mean), ``mu_deg`` (circular mean),
-    ``sigma_deg`` (median) — None when no frame has a fit.
-    """
-    topic = f"/hos/{camera}/histogram"
-    spans = [(p, _time_span(Path(p))) for p in mcap_files]
-    results: list[dict[str, Any] | None] = []
-    for w_start, w_end in windows:
-        total: np.ndarray | None = None
-        n = 0
-        width = 1.0
-        pis: list[float] = []
-        mus: list[float] = []
-        sigmas: list[float] = []
-        for path, span in spans:
-            if span is None or span[1] < w_start or span[0] >= w_end:
-                continue
-            try:
-                with open(path, "rb") as f:
-                    reader = make_reader(f)
-                    for payload in _sampled(reader, topic, w_start, w_end, samples, sample_s):
-                        hist = np.asarray(payload.get("histogram", ()), dtype=np.float64)
-                        if hist.size == 0:
-                            continue
-                        if total is None:
-                            total = np.zeros_like(hist)
-                        if hist.shape != total.shape:
-                            continue
-                        total += hist
-                        n += 1
-                        width = float(payload.get("bin_width_deg", 180.0 / hist.size))
-                        if payload.get("pi") is not None and payload.get("mu_deg") is not None:
-                            pis.append(float(payload["pi"]))
-                            mus.append(float(payload["mu_deg"]))
-                            sigmas.append(float(payload.get("sigma_deg") or math.nan))
-            except _DAMAGED as exc:
-                log.warning("%s: histograms unreadable (%s)", path, exc)
-        if total is None or n == 0:
-            results.append(None)
-            continue
-        fit = None
-        if pis:
-            doubled = np.radians(2.0 * np.asarray(mus))
-            mu = (np.degrees(np.arctan2(np.sin(doubled).sum(), np.cos(doubled).sum())) / 2) % 180
-            fit = {
-                "pi": float(np.mean(pis)),
-                "mu_deg": float(mu),
-                "sigma_deg": float(np.nanmedian(sigmas)) if np.isfinite(sigmas).any() else None,
-            }
-        results.append({"histogram": total / n, "bin_width_deg": width, "frames": n, "fit": fit})
-    return results
-
-
-def _sampled(reader, topic: str, start: int, end: int, samples: int, sample_s: float):
-    """JSON payloads of ``topic`` in [start, end), or in evenly spaced stretches of it."""
-    step = int(sample_s * 1e9)
-    if samples < 1 or end - start <= samples * step:
-        stretches = [(start, end)]
-    else:
-        gap = (end - start - step) // max(samples - 1, 1)
-        stretches = [(start + i * gap, start + i * gap + step) for i in range(samples)]
-    for lo, hi in stretches:
-        for _, _, message in reader.iter_messages(
-            topics=[topic], starting_at=lo, ending_before=hi, log_time_order=False
-        ):
-            yield json.loads(message.data)
 
 
 def _ns(t: datetime) -> int:
