@@ -31,34 +31,44 @@ Repair
     :mod:`daemon.mcap_repair`: ``recover`` copies every complete record of an unfinished or
     truncated file into a properly finished one; ``recover_directory`` does so for each
     ``*.mcap.part`` at start-up.
+Modules
+    this one holds :class:`Recorder` (rotation, disk budget, flush and ``fsync`` timers,
+    full-disk episodes) and :class:`RecorderLogHandler`; :mod:`daemon.mcap_json` the messages
+    and their JSON encoding, :mod:`daemon.mcap_file` the MCAP format facts and
+    :class:`McapFile`, :mod:`daemon.recording_files` the recording directory. Their public
+    names are importable from here as before.
 """
 
 from __future__ import annotations
 
-import base64
-import json
 import logging
-import math
 import os
-import re
-import shutil
-import struct
 import threading
 import time
-import traceback
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager, suppress
-from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, BinaryIO
 
-import mcap.writer
-import numpy as np
-from mcap.decoder import DecoderFactory
-from mcap.exceptions import McapError
-from mcap.records import Schema
-from mcap.writer import CompressionType, Writer
+from mcap.writer import Writer
+
+# Re-exported: daemon.mcap_repair imports the format facts from here.
+from .mcap_file import _CORRUPT as _CORRUPT
+from .mcap_file import _MAX_CHUNK_BYTES as _MAX_CHUNK_BYTES
+from .mcap_file import LIBRARY, McapFile, _channel_id, _compression
+from .mcap_file import MCAP_MAGIC as MCAP_MAGIC
+from .mcap_json import (
+    FOXGLOVE_COMPRESSED_IMAGE_SCHEMA,
+    FOXGLOVE_LOG_SCHEMA,
+    JsonDecoderFactory,
+    compressed_image,
+    encode_json,
+    log_message,
+)
+
+# Looked up here by the Recorder, so that the tests can replace them on daemon.recorder.
+from .recording_files import _SITE_RE, _free_bytes, _fsync_directory, _open_stream, _recordings
 
 __all__ = [
     "FOXGLOVE_COMPRESSED_IMAGE_SCHEMA",
@@ -73,276 +83,6 @@ __all__ = [
 ]
 
 log = logging.getLogger(__name__)
-
-MCAP_MAGIC = b"\x89MCAP0\r\n"
-LIBRARY = "hos-weatherd"
-_SITE_RE = re.compile(r"[A-Za-z0-9][A-Za-z0-9._-]*")
-_NAME_RE = re.compile(
-    r"(?P<site>.+)_(?P<start>\d{8}T\d{6}Z)(?:-(?P<seq>\d+))?\.mcap(?P<part>\.part)?"
-)
-# A chunk claiming more than this when decompressed is taken for corruption (ours are ~chunk_size).
-_MAX_CHUNK_BYTES = 256 * 2**20
-# What a corrupt record can raise while it is parsed (lz4 raises RuntimeError): stop there.
-_CORRUPT: tuple[type[Exception], ...] = (
-    McapError,
-    struct.error,
-    ValueError,
-    EOFError,
-    RuntimeError,
-    OverflowError,
-    *((mcap.writer.zstandard.ZstdError,) if mcap.writer.zstandard is not None else ()),
-)
-
-_TIME_SCHEMA = {
-    "type": "object",
-    "title": "time",
-    "properties": {
-        "sec": {"type": "integer", "minimum": 0},
-        "nsec": {"type": "integer", "minimum": 0, "maximum": 999_999_999},
-    },
-}
-
-FOXGLOVE_COMPRESSED_IMAGE_SCHEMA: dict = {
-    "title": "foxglove.CompressedImage",
-    "description": "A compressed image",
-    "type": "object",
-    "properties": {
-        "timestamp": {**_TIME_SCHEMA, "description": "Timestamp of image"},
-        "frame_id": {"type": "string", "description": "Frame of reference for the image"},
-        "data": {
-            "type": "string",
-            "contentEncoding": "base64",
-            "description": "Compressed image data",
-        },
-        "format": {"type": "string", "description": "Image format: jpeg, png, webp or avif"},
-    },
-}
-
-FOXGLOVE_LOG_SCHEMA: dict = {
-    "title": "foxglove.Log",
-    "description": "A log message",
-    "type": "object",
-    "properties": {
-        "timestamp": {**_TIME_SCHEMA, "description": "Timestamp of log message"},
-        "level": {
-            "title": "foxglove.LogLevel",
-            "description": "Log level",
-            "oneOf": [
-                {"title": title, "const": value}
-                for value, title in enumerate(
-                    ["UNKNOWN", "DEBUG", "INFO", "WARNING", "ERROR", "FATAL"]
-                )
-            ],
-        },
-        "message": {"type": "string", "description": "Log message"},
-        "name": {"type": "string", "description": "Process or node name"},
-        "file": {"type": "string", "description": "Filename"},
-        "line": {"type": "integer", "minimum": 0, "description": "Line number in the file"},
-    },
-}
-
-
-# --------------------------------------------------------------------------- message helpers
-
-
-def foxglove_time(t_ns: int) -> dict:
-    """``{"sec": int, "nsec": int}`` of a time in integer nanoseconds since the epoch."""
-    sec, nsec = divmod(int(t_ns), 1_000_000_000)
-    return {"sec": sec, "nsec": nsec}
-
-
-def compressed_image(jpeg: bytes, *, t_ns: int, frame_id: str, image_format: str = "jpeg") -> dict:
-    """A ``foxglove.CompressedImage`` message (JSON encoding: ``data`` is base64).
-
-    Parameters
-    ----------
-    jpeg : bytes
-        The encoded image.
-    t_ns : int
-        Capture time, nanoseconds since the Unix epoch.
-    frame_id : str
-        The camera's name.
-    image_format : str
-        ``"jpeg"`` unless the bytes are something else Foxglove decodes (``"png"``, ``"webp"``).
-    """
-    return {
-        "timestamp": foxglove_time(t_ns),
-        "frame_id": frame_id,
-        "data": base64.b64encode(jpeg).decode("ascii"),
-        "format": image_format,
-    }
-
-
-def foxglove_log_level(levelno: int) -> int:
-    """Python logging level → ``foxglove.LogLevel`` (1 DEBUG … 5 FATAL)."""
-    for foxglove_level, below in enumerate(
-        (logging.INFO, logging.WARNING, logging.ERROR, logging.CRITICAL), start=1
-    ):
-        if levelno < below:
-            return foxglove_level
-    return 5
-
-
-def log_message(record: logging.LogRecord) -> dict:
-    """A ``foxglove.Log`` message from a log record (with its traceback, if any)."""
-    try:
-        text = record.getMessage()
-    except (TypeError, ValueError):  # bad %-arguments: keep what we can
-        text = f"{record.msg} {record.args}"
-    if record.exc_info:
-        text += "\n" + "".join(traceback.format_exception(*record.exc_info)).rstrip()
-    return {
-        "timestamp": foxglove_time(getattr(record, "created_ns", None) or record.created * 1e9),
-        "level": foxglove_log_level(record.levelno),
-        "message": text,
-        "name": record.name,
-        "file": record.pathname,
-        "line": max(int(record.lineno or 0), 0),
-    }
-
-
-def _json_default(value: Any) -> Any:
-    if isinstance(value, np.ndarray | np.generic):
-        return value.tolist()
-    if isinstance(value, bytes | bytearray | memoryview):
-        return base64.b64encode(value).decode("ascii")
-    if isinstance(value, os.PathLike):
-        return os.fspath(value)
-    raise TypeError(f"{type(value).__name__} is not JSON serialisable")
-
-
-def _finite(value: Any) -> Any:
-    """``value`` with every NaN or infinity replaced by ``None`` (JSON has neither)."""
-    if isinstance(value, float | np.floating):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.ndarray):
-        return _finite(value.tolist())
-    if isinstance(value, dict):
-        return {k: _finite(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(v) for v in value]
-    return value
-
-
-_ENCODER = json.JSONEncoder(
-    separators=(",", ":"), ensure_ascii=False, allow_nan=False, default=_json_default
-)
-
-
-def encode_json(message: Any) -> bytes:
-    """Compact UTF-8 JSON of ``message``; numpy values become numbers, NaN/inf become ``null``.
-
-    Raises ``TypeError`` for a value JSON cannot represent (a programming error).
-    """
-    try:
-        return _ENCODER.encode(message).encode()
-    except ValueError:  # a non-finite float somewhere: rare, so only then walk the message
-        return _ENCODER.encode(_finite(message)).encode()
-
-
-class JsonDecoderFactory(DecoderFactory):
-    """Decodes ``json`` messages: ``make_reader(f, decoder_factories=[JsonDecoderFactory()])``."""
-
-    def decoder_for(self, message_encoding: str, schema: Schema | None) -> Callable | None:
-        """``json.loads`` for the ``json`` message encoding, else ``None``."""
-        return json.loads if message_encoding == "json" else None
-
-
-# --------------------------------------------------------------------------- files
-
-
-def _compression(name: str) -> CompressionType:
-    """The mcap compression for ``name``, falling back to lz4 then none when not installed."""
-    wanted = name.lower() or "none"
-    if wanted not in ("zstd", "lz4", "none"):
-        raise ValueError(f"compression: expected zstd, lz4 or none, got {name!r}")
-    available = {
-        "zstd": mcap.writer.zstandard is not None,
-        "lz4": mcap.writer.lz4 is not None,
-        "none": True,
-    }
-    chosen = next(c for c in (wanted, "lz4", "none") if available[c])
-    if chosen != wanted:
-        log.warning("compression %s is not installed; recording with %s", wanted, chosen)
-    return {"zstd": CompressionType.ZSTD, "lz4": CompressionType.LZ4}.get(
-        chosen, CompressionType.NONE
-    )
-
-
-def _open_stream(path: Path) -> BinaryIO:
-    """Create ``path`` for writing (a seam for the tests' full-disk simulation)."""
-    return open(path, "xb")  # closed by the Recorder
-
-
-def _fsync_directory(directory: Path) -> None:
-    """Make a rename in ``directory`` durable (best effort)."""
-    with suppress(OSError):
-        fd = os.open(directory, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-
-
-def _free_bytes(directory: Path) -> int:
-    """Bytes free to unprivileged users on the filesystem of ``directory``."""
-    return shutil.disk_usage(directory).free
-
-
-@dataclass(frozen=True)
-class _Recording:
-    path: Path
-    size: int
-    site: str | None
-    order: tuple[str, int]  # (UTC start, sequence): oldest first
-    finished: bool
-
-
-def _recordings(directory: Path) -> list[_Recording]:
-    """Every ``*.mcap`` and ``*.mcap.part`` in ``directory`` (names not ours have no site)."""
-    found = []
-    with suppress(FileNotFoundError), os.scandir(directory) as entries:
-        for entry in entries:
-            if not entry.name.endswith((".mcap", ".mcap.part")):
-                continue
-            try:
-                size = entry.stat(follow_symlinks=False).st_size
-            except OSError:
-                continue
-            m = _NAME_RE.fullmatch(entry.name)
-            found.append(
-                _Recording(
-                    path=Path(entry.path),
-                    size=size,
-                    site=m["site"] if m else None,
-                    order=(m["start"], int(m["seq"] or 0)) if m else ("", 0),
-                    finished=entry.name.endswith(".mcap"),
-                )
-            )
-    return found
-
-
-def _channel_id(
-    writer: Writer,
-    schema_ids: dict[tuple[str, bytes], int],
-    channel_ids: dict[tuple[str, str], int],
-    topic: str,
-    schema_name: str,
-    schema: dict,
-) -> int:
-    """The channel of ``(topic, schema_name)`` in this file, registered (with its JSON Schema)
-    on first use; the ``schema`` dict is only serialised then."""
-    key = (topic, schema_name)
-    channel_id = channel_ids.get(key)
-    if channel_id is None:
-        schema_data = json.dumps(schema, sort_keys=True, separators=(",", ":")).encode()
-        schema_id = schema_ids.get((schema_name, schema_data))
-        if schema_id is None:
-            schema_id = writer.register_schema(schema_name, "jsonschema", schema_data)
-            schema_ids[(schema_name, schema_data)] = schema_id
-        channel_id = writer.register_channel(topic, "json", schema_id)
-        channel_ids[key] = channel_id
-    return channel_id
 
 
 def _due(now_ns: int, last_ns: int, interval_ns: int) -> bool:
@@ -762,62 +502,6 @@ class Recorder:
                 self._abandoned = [p for p in self._abandoned if p.exists()]
         finally:
             self._budget_lock.release()
-
-
-class McapFile:
-    """One MCAP file written from start to finish, for offline tools (``weatherd replay``).
-
-    Same messages as :class:`Recorder` (JSON with JSON Schemas) but no rotation, budget or
-    timers, and errors raise. Written as ``<path>.part`` and renamed to ``path`` by
-    :meth:`close` (also on leaving the ``with`` block, even on an exception: what was written
-    is kept).
-    """
-
-    def __init__(
-        self, path: str | os.PathLike, *, chunk_size: int = 2**20, compression: str = "zstd"
-    ) -> None:
-        self.path = Path(path)
-        self._part = self.path.with_name(self.path.name + ".part")
-        self._stream = open(self._part, "wb")  # closed by close()
-        self._writer = Writer(
-            self._stream, chunk_size=chunk_size, compression=_compression(compression)
-        )
-        self._writer.start(profile="", library=LIBRARY)
-        self._schema_ids: dict[tuple[str, bytes], int] = {}
-        self._channel_ids: dict[tuple[str, str], int] = {}
-        self._closed = False
-        self.messages = 0
-
-    def write(self, topic: str, schema_name: str, schema: dict, message: Any, *, t_ns: int) -> bool:
-        """Like :meth:`Recorder.write`, but an ``OSError`` raises; always returns ``True``."""
-        if self._closed:
-            raise ValueError(f"{self.path}: write after close")
-        channel_id = _channel_id(
-            self._writer, self._schema_ids, self._channel_ids, topic, schema_name, schema
-        )
-        data = encode_json(message)
-        self._writer.add_message(channel_id, log_time=int(t_ns), data=data, publish_time=int(t_ns))
-        self.messages += 1
-        return True
-
-    def close(self) -> None:
-        """Finish the file and rename it into place. Idempotent."""
-        if self._closed:
-            return
-        self._closed = True
-        try:
-            self._writer.finish()
-            self._stream.flush()
-            os.fsync(self._stream.fileno())
-        finally:
-            self._stream.close()
-        os.replace(self._part, self.path)
-
-    def __enter__(self) -> McapFile:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
 
 
 class RecorderLogHandler(logging.Handler):

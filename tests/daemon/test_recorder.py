@@ -428,7 +428,7 @@ def test_compression_falls_back_when_zstd_is_missing(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
 ) -> None:
     monkeypatch.setattr(mcap.writer, "zstandard", None)
-    with caplog.at_level(logging.WARNING, logger="daemon.recorder"):
+    with caplog.at_level(logging.WARNING, logger="daemon.mcap_file"):
         rec = Recorder(tmp_path, site="demo", compression="zstd")
     assert rec.compression == CompressionType.LZ4
     assert "not installed" in caplog.text
