@@ -17,16 +17,11 @@ Usable intervals
     an interval is *used* when at least ``min_judged`` of its frames were judged and its frames
     span at least ``min_coverage`` of it; the others are kept (flagged, counted, reported) but
     the calibration and the scores skip them. Frames outside every interval are counted.
-Files
-    files or directories (searched recursively for ``*.mcap``; unfinished ``*.mcap.part`` files
-    are not read), ordered by their first message time; files whose time ranges overlap are
-    merged message by message. A damaged or unfinished file (no summary section) is skipped with
-    a warning — ``weatherd recover`` repairs it; an error in the middle of a file stops that file
-    (what was read is kept) with a warning.
 
 The frames are read by :mod:`daemon.offline.mcap_frames` (:func:`find_mcap_files`,
-:func:`iter_frames`) and the mean histograms computed by :mod:`daemon.offline.histograms`
-(:func:`mean_histograms`); both are re-exported here.
+:func:`iter_frames`: which files, in what order, and what happens to damaged ones) and the mean
+histograms computed by :mod:`daemon.offline.histograms` (:func:`mean_histograms`); both are
+re-exported here.
 """
 
 from __future__ import annotations
