@@ -190,7 +190,7 @@ class HosDetector:
         self._relearn = max(self._relearn - 1, 0)
         foreground = self._segmenter.model(frame, learning_rate=learning_rate)
         changed = self._segmenter.foreground_fraction
-        if self._roi is not None and self._segmenter.delay == 0:
+        if self._roi is not None:
             # the candidates are foreground pixels of the ROI: their fraction is at most this
             in_roi_fg = cv2.countNonZero(cv2.bitwise_and(foreground, self._roi))
             changed = max(changed, in_roi_fg / self._roi_area)
