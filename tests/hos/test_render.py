@@ -172,9 +172,44 @@ def test_orientations_always_in_range(mu, sigma, noise, seed):
     assert np.all((theta >= 0) & (theta < np.pi))
 
 
+def _mean_orientation_deg(theta_deg: float, length: float, supersample: int) -> float:
+    """Mean intensity-weighted orientation of 200 single streaks at random sub-pixel places."""
+    rng = np.random.default_rng(11)
+    params = StreakParams(
+        mu_deg=theta_deg,
+        sigma_deg=0.0,
+        length_px=length,
+        length_jitter=0.0,
+        brightness_jitter=0.0,
+        count=1,
+        supersample=supersample,
+    )
+    ys, xs = np.mgrid[0:40, 0:40]
+    got = []
+    for _ in range(200):
+        layer = render_streaks((40, 40), params, rng).layer.astype(np.float64)
+        x0, y0 = (layer * xs).sum() / layer.sum(), (layer * ys).sum() / layer.sum()
+        dx, dy = xs - x0, ys - y0
+        m20, m11, m02 = ((layer * d).sum() for d in (dx * dx, dx * dy, dy * dy))
+        got.append(math.degrees(0.5 * math.atan2(2 * m11, m20 - m02)) % 180.0)
+    return float(np.mean(got))
+
+
+@pytest.mark.parametrize("length", [5, 11])
+def test_supersampled_streaks_have_no_orientation_bias(length):
+    """OpenCV's antialiased lines cut their ends square to the major axis, so a short line
+    leans toward the diagonal; the supersampled rectangles do not (Fig. 6 depends on it)."""
+    exact = _mean_orientation_deg(55.0, length, supersample=8)
+    assert exact == pytest.approx(55.0, abs=0.3)
+    if length == 5:
+        assert _mean_orientation_deg(55.0, length, supersample=1) < 53.5  # the artefact
+
+
 def test_invalid_parameters_name_the_field():
     with pytest.raises(ValueError, match=r"StreakParams\.noise_fraction"):
         StreakParams(noise_fraction=1.5)
+    with pytest.raises(ValueError, match=r"StreakParams\.supersample"):
+        StreakParams(supersample=0)
     with pytest.raises(ValueError, match=r"SnowParams\.radius_px"):
         SnowParams(radius_px=(3.0, 1.0))
     with pytest.raises(ValueError, match=r"SceneParams\.darkness"):
