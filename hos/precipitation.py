@@ -207,8 +207,22 @@ def _draw_streaks(
         for (x0, y0, x1, y1), v, noise in zip(ends, values, is_noise.tolist(), strict=True):
             cv2.line(canvases[noise], (x0, y0), (x1, y1), v, 1, cv2.LINE_AA, _SHIFT)
         return canvases
-    across = (0.5 * width - 0.5) * np.stack([-direction[:, 1], direction[:, 0]], axis=1)
-    corners = np.stack(
+    corners = _rectangles(centers, theta, lengths, 0.5 * width - 0.5)
+    corners = np.rint(corners * _ONE).astype(np.int32)
+    for quad, v, noise in zip(corners, values, is_noise.tolist(), strict=True):
+        cv2.fillConvexPoly(canvases[noise], quad, v, cv2.LINE_AA, _SHIFT)
+    return canvases
+
+
+def _rectangles(
+    centers: np.ndarray, theta: np.ndarray, lengths: np.ndarray, half_width: float
+) -> np.ndarray:
+    """(N, 4, 2) corners of each streak's rectangle: ``lengths`` along ``theta``, ``2 *
+    half_width`` across, centred on ``centers`` (N, 2), ends square to the streak."""
+    direction = np.stack([np.cos(theta), np.sin(theta)], axis=1)
+    along = 0.5 * lengths[:, None] * direction
+    across = half_width * np.stack([-direction[:, 1], direction[:, 0]], axis=1)
+    return np.stack(
         [
             centers - along - across,
             centers + along - across,
@@ -216,11 +230,7 @@ def _draw_streaks(
             centers - along + across,
         ],
         axis=1,
-    )  # (N, 4, 2)
-    corners = np.rint(corners * _ONE).astype(np.int32)
-    for quad, v, noise in zip(corners, values, is_noise.tolist(), strict=True):
-        cv2.fillConvexPoly(canvases[noise], quad, v, cv2.LINE_AA, _SHIFT)
-    return canvases
+    )
 
 
 def _draw_streaks_supersampled(
@@ -237,18 +247,7 @@ def _draw_streaks_supersampled(
     with ends square to the streak, filled at ``factor`` times the resolution, then averaged
     down (``INTER_AREA``): every pixel gets the level times the share of it the streak covers."""
     h, w = shape
-    direction = np.stack([np.cos(theta), np.sin(theta)], axis=1)
-    along = 0.5 * lengths[:, None] * direction
-    across = 0.5 * width * np.stack([-direction[:, 1], direction[:, 0]], axis=1)
-    corners = np.stack(
-        [
-            centers - along - across,
-            centers + along - across,
-            centers + along + across,
-            centers - along + across,
-        ],
-        axis=1,
-    )  # (N, 4, 2), pixel-centre coordinates of the frame
+    corners = _rectangles(centers, theta, lengths, 0.5 * width)  # pixel-centre coordinates
     # A frame pixel i spans [i - 1/2, i + 1/2]: at `factor` times the resolution, coordinate u
     # is factor * (u + 1/2) - 1/2.
     corners = np.rint((factor * (corners + 0.5) - 0.5) * _ONE).astype(np.int32)
