@@ -1,11 +1,12 @@
 """Running the detector over a stream of frames, both cores busy.
 
-``HosDetector.segment`` (exposure, background model, candidate pixels: mostly OpenCV, which
-releases the GIL) of the next frames runs on a worker thread while ``HosDetector.analyse``
-(blobs, HOS, EM, decision) of frame n runs on the caller's thread. The two stages share no
-mutable state (``hos.pipeline.Segmented`` is all that passes between them), each stage sees its
-frames in order, and the results are exactly those of ``process`` called frame by frame
-(tests/daemon/test_detection.py).
+``HosDetector.segment`` (the exposure gain and the background model, MOG2: the floor of the
+method, which OpenCV spreads over both cores with the GIL released) of the next frames runs on a
+worker thread while ``HosDetector.analyse`` (camera motion, candidate pixels, blobs, HOS, EM,
+decision: compiled kernels and numpy) of frame n runs on the caller's thread. The two stages
+share no mutable state (``hos.pipeline.Segmented`` is all that passes between them), each stage
+sees its frames in order, and the results are exactly those of ``process`` called frame by
+frame (tests/daemon/test_detection.py).
 
 The worker may run up to ``lookahead`` frames ahead of the analysis. One frame ahead is enough
 in theory; in practice the two stages' costs vary from frame to frame (a car, a burst of rain)

@@ -15,8 +15,13 @@ Steps, in the paper's order (Fig. 1), with our additions marked *beyond*:
 7. rain pixels: blobs classified by the Bayes ratio against S_b (eqs. 28-30);
 8. intensity R = S * Pi (eq. 31), *beyond*: corrected for merged streaks in heavy rain.
 
-The detector is pure: no I/O, no threads, no clock. Its only state is the background model, the
-per-pixel candidate rate and the Kalman filter.
+Steps 1 (without the camera motion) and the background model run in :meth:`HosDetector.segment`,
+the rest in :meth:`HosDetector.analyse`, so that a caller can overlap the two on two threads
+(``daemon.detection``); :meth:`HosDetector.process` runs both.
+
+The detector is pure: no I/O, no threads, no clock. Its state is the background model and the
+exposure gain (``segment``), and the running background of the photometric rule, the per-pixel
+candidate rate, the camera's reference image and the Kalman filter (``analyse``).
 """
 
 from __future__ import annotations
