@@ -72,10 +72,25 @@ def main(argv: Sequence[str] | None = None) -> int:
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 128 + signal.SIGPIPE
     except Exception as exc:
+        if _raised_by_interrupt(exc):
+            return EXIT_INTERRUPTED
         if args.debug:
             traceback.print_exc()
         _print_error(f"internal error: {type(exc).__name__}: {exc}")
         return EXIT_INTERNAL
+
+
+def _raised_by_interrupt(exc: BaseException) -> bool:
+    """True when ``exc`` came of a Ctrl-C: a KeyboardInterrupt raised while native code ran
+    (a numba kernel, for one) can surface as a SystemError ("returned a result with an
+    exception set") whose context is the KeyboardInterrupt."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 # -- detect ------------------------------------------------------------------------------
@@ -105,6 +120,10 @@ def _detect(args: argparse.Namespace) -> int:
 
         started = time.perf_counter()
         results = detect_frames(detector, decoded())  # segmentation of n+1 beside analysis of n
+        # Ctrl-C (or SIGTERM) sets a flag read between frames, rather than raising wherever the
+        # main thread happens to be (inside a compiled kernel, the exception would be garbled);
+        # a second one ends the process at once.
+        stop = _StopOnSignals()
         try:
             for result in results:
                 frame = in_flight.popleft()
@@ -114,9 +133,13 @@ def _detect(args: argparse.Namespace) -> int:
                     overlay.write(draw_overlay(frame.gray, result, params=params))
                 frames += 1
                 rain_frames += bool(result.rain)
+                if stop.event.is_set():
+                    interrupted = True
+                    break
         except KeyboardInterrupt:
             interrupted = True
         finally:
+            stop.restore()
             results.close()  # stops the segmentation worker
         elapsed = time.perf_counter() - started
         skipped = video.frames_skipped

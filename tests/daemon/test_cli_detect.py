@@ -344,3 +344,17 @@ def test_internal_error_is_one_line_and_status_1(
     assert cli.main(["detect", str(rainy_clip)]) == 1
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert err == ["weatherd: error: internal error: ZeroDivisionError: a bug"]
+
+
+def test_an_interrupt_garbled_by_native_code_still_reads_as_ctrl_c() -> None:
+    """A KeyboardInterrupt raised while a numba kernel ran surfaces as a SystemError whose
+    context is the interrupt: it is still an interruption (exit 130), not an internal error."""
+    try:
+        try:
+            raise KeyboardInterrupt
+        except KeyboardInterrupt:
+            raise SystemError("CPUDispatcher returned a result with an exception set")  # noqa: B904
+    except SystemError as exc:
+        garbled = exc
+    assert cli._raised_by_interrupt(garbled)
+    assert not cli._raised_by_interrupt(SystemError("something else"))
