@@ -49,17 +49,20 @@ def why_disabled() -> str:
     return "" if ENABLED else _why
 
 
-def _njit(fn):
+def _njit(fn=None, *, fastmath: bool | set[str] = False):
     """``numba.njit`` with the GIL released and machine code cached on disk (next to this file,
     or in ``NUMBA_CACHE_DIR``); without a writable cache the kernels are compiled at each start
-    (a few seconds). Without numba, ``fn`` itself (the callers then use the numpy path)."""
+    (a few seconds). Without numba, ``fn`` itself (the callers then use the numpy path).
+    ``@_njit(fastmath=...)`` passes numba's fastmath flags."""
+    if fn is None:
+        return lambda f: _njit(f, fastmath=fastmath)
     if numba is None:
         return fn
     try:
-        return numba.njit(cache=True, nogil=True)(fn)
+        return numba.njit(cache=True, nogil=True, fastmath=fastmath)(fn)
     except RuntimeError as exc:  # "cannot cache function ...: no locator available"
         log.warning("numba cannot cache %s (%s); it is compiled at each start", fn.__name__, exc)
-        return numba.njit(nogil=True)(fn)
+        return numba.njit(nogil=True, fastmath=fastmath)(fn)
 
 
 @_njit

@@ -19,7 +19,7 @@ import threading
 import cv2
 import numpy as np
 
-from ._jit import ENABLED, numba
+from ._jit import ENABLED, _njit
 from .motion import global_translation
 
 __all__ = ["global_translation_jit"]
@@ -29,18 +29,9 @@ _MIN_STRONG = 500  # fewer strong-gradient pixels than this: fit all pixels
 _ROUNDS = 3  # of iteratively reweighted least squares
 
 
-def _njit_fast(fn):
-    """``hos._jit._njit``, letting LLVM reorder the float sums (into SIMD lanes)."""
-    if numba is None:
-        return fn
-    fast = {"reassoc", "contract"}  # not "nnan"/"ninf": the code compares with np.inf
-    try:
-        return numba.njit(cache=True, nogil=True, fastmath=fast)(fn)
-    except RuntimeError:  # no writable cache: compiled at each start, as in hos._jit
-        return numba.njit(nogil=True, fastmath=fast)(fn)
-
-
-@_njit_fast
+# fastmath lets LLVM reorder the float sums into SIMD lanes; not "nnan"/"ninf": the code
+# compares with np.inf.
+@_njit(fastmath={"reassoc", "contract"})
 def _fit_translation(prev, cur, significance, terms, residuals):  # pragma: no cover - compiled
     # terms: (3, h - 2b, w - 2b) float32 and residuals: ((h - 2b) * (w - 2b),) float64, scratch
     h, w = prev.shape

@@ -9,7 +9,7 @@ the image as a whole is structure, not rain.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import cv2
 import numpy as np
@@ -39,7 +39,7 @@ class Blobs:
     moments : BlobMoments over the labels
     shape : (H, W) of the image
     labels : (H, W) int32 label image, 0 = not a candidate, when it was computed (the dense
-        path); :meth:`label_image` makes it on demand otherwise
+        path); None otherwise (``FrameResult.label_image`` makes one from index and labels)
     rate_sum : (n_labels,) float64, sum over each blob of the candidate rate it was labelled
         with (:func:`find_blobs_sparse`), else None
     """
@@ -51,27 +51,6 @@ class Blobs:
     shape: tuple[int, int]
     labels: np.ndarray | None = None
     rate_sum: np.ndarray | None = None
-
-    @property
-    def xs(self) -> np.ndarray:
-        return self.index % self.shape[1]
-
-    @property
-    def ys(self) -> np.ndarray:
-        return self.index // self.shape[1]
-
-    def label_image(self) -> np.ndarray:
-        """(H, W) int32 label image, 0 where no candidate."""
-        if self.labels is not None:
-            return self.labels
-        return label_image(self.index, self.pixel_labels, self.shape)
-
-
-def label_image(index: np.ndarray, pixel_labels: np.ndarray, shape: tuple[int, int]) -> np.ndarray:
-    """(H, W) int32 image with ``pixel_labels`` at the flat ``index`` and 0 elsewhere."""
-    out = np.zeros(shape, np.int32)
-    out.reshape(-1)[index] = pixel_labels
-    return out
 
 
 def label_candidates(mask: np.ndarray) -> tuple[int, np.ndarray]:
@@ -131,10 +110,7 @@ def find_blobs_sparse(
         mask.reshape(-1)[index] = 255
         blobs = find_blobs(mask)
         rate_sum = None if rate is None else blob_rate_sum(blobs, rate.stored)
-        return Blobs(
-            blobs.index, blobs.pixel_labels, blobs.n_labels, blobs.moments, shape,
-            blobs.labels, rate_sum,
-        )  # fmt: skip
+        return replace(blobs, rate_sum=rate_sum)
     labels, n_labels, *arrays, rate_sum = _jit.label_sparse(
         index, shape, None if rate is None else rate.stored, min_area=min_area, max_area=max_area
     )
