@@ -36,11 +36,11 @@ import numpy as np
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from daemon.detection import detect_frames  # noqa: E402
+from daemon.service.detection import detect_frames  # noqa: E402
+from drivers.simulator import Scene, SceneParams, StreakParams, write_video  # noqa: E402
 from drivers.video import open_video  # noqa: E402
 from hos import DetectorParams, HosDetector  # noqa: E402
 from hos.background import create_mog2  # noqa: E402
-from hos.render import Scene, SceneParams, StreakParams, write_video  # noqa: E402
 
 RESULTS = REPO / "bench" / "results"
 

@@ -1,8 +1,8 @@
 """How many sites can one Zenoh router carry to a ``weather/**`` subscriber, and how fast?
 
 One router process, N simulated sites, one subscriber on ``weather/**``, all on 127.0.0.1.
-Each site is a real :class:`daemon.publisher.ZenohPublisher` in client mode (its own session,
-TCP connection, liveliness token and queryable, as in the field) publishing a ~1 KB
+Each site is a real :class:`daemon.transport.publisher.ZenohPublisher` in client mode (its own
+session, TCP connection, liveliness token and queryable, as in the field) publishing a ~1 KB
 ``weather.state/1``-like message at 1 Hz on ``weather/site-XXX/state``; the sites are spread
 over a few publisher processes (both cores busy) and their phases spread over the second.
 The publish time (``time.time_ns()`` just before ``put``) is in the payload; the subscriber
@@ -81,7 +81,7 @@ def run_publishers(
     endpoint: str, first: int, count: int, total: int, seconds: int, start_at: float, size: int
 ) -> None:
     """Child program: ``count`` of ``total`` sites from index ``first``; stats on stdout."""
-    from daemon.publisher import ZenohPublisher, encode_message, zenoh_config
+    from daemon.transport.publisher import ZenohPublisher, encode_message, zenoh_config
 
     logging.basicConfig(level=logging.ERROR)  # open retries are counted, not logged
 

@@ -1,4 +1,4 @@
-"""The demo camera: the synthetic street of :func:`hos.render.demo_frames` as a live source.
+"""The demo camera: the synthetic street of :func:`drivers.simulator.demo_frames` as a live source.
 
 It lets ``weatherd run`` work out of the box without a camera: rain and snow come and go on a
 two-minute cycle. Frames are paced in real time at the demo's rate, or given as fast as they
@@ -13,7 +13,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from hos.render import FrameTruth, demo_frames
+from drivers.simulator import FrameTruth, demo_frames
 
 from .errors import SourceError
 from .frames import LiveFrame, Pacer
@@ -33,7 +33,7 @@ class DemoSource:
 
     Attributes
     ----------
-    truth : the :class:`~hos.render.FrameTruth` of the last frame read (what fell, how much)
+    truth : the :class:`~drivers.simulator.FrameTruth` of the last frame read (what fell, how much)
     """
 
     def __init__(

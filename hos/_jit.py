@@ -18,51 +18,14 @@ forbids in Python, written once in the one place where a loop is the clearest an
 
 from __future__ import annotations
 
-import logging
-import os
 import time
 
 import numpy as np
 
+from ._numba import ENABLED, _njit, why_disabled
 from .moments import _PIXEL_VAR
 
 __all__ = ["ENABLED", "label_sparse", "photometric_candidates", "warm_up", "why_disabled"]
-
-log = logging.getLogger(__name__)
-
-try:  # numba is a dependency, but the detector must still run (slower) where it cannot load
-    import numba
-except Exception as exc:
-    numba = None
-    _why = f"numba unavailable ({exc.__class__.__name__}: {exc})"
-else:
-    _why = ""
-
-#: True when the compiled kernels are used (numba imported and ``HOS_JIT`` is not "0").
-ENABLED = numba is not None and os.environ.get("HOS_JIT", "1") != "0"
-if numba is not None and not ENABLED:
-    _why = "HOS_JIT=0"
-
-
-def why_disabled() -> str:
-    """Why the kernels are not used ("" when they are)."""
-    return "" if ENABLED else _why
-
-
-def _njit(fn=None, *, fastmath: bool | set[str] = False):
-    """``numba.njit`` with the GIL released and machine code cached on disk (next to this file,
-    or in ``NUMBA_CACHE_DIR``); without a writable cache the kernels are compiled at each start
-    (a few seconds). Without numba, ``fn`` itself (the callers then use the numpy path).
-    ``@_njit(fastmath=...)`` passes numba's fastmath flags."""
-    if fn is None:
-        return lambda f: _njit(f, fastmath=fastmath)
-    if numba is None:
-        return fn
-    try:
-        return numba.njit(cache=True, nogil=True, fastmath=fastmath)(fn)
-    except RuntimeError as exc:  # "cannot cache function ...: no locator available"
-        log.warning("numba cannot cache %s (%s); it is compiled at each start", fn.__name__, exc)
-        return numba.njit(nogil=True, fastmath=fastmath)(fn)
 
 
 @_njit

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from ._jit import _njit
+from ._numba import _njit
 from .result import MixtureFit
 
 __all__ = ["fit_mixture_jit"]

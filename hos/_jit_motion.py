@@ -19,7 +19,7 @@ import threading
 import cv2
 import numpy as np
 
-from ._jit import ENABLED, _njit
+from ._numba import ENABLED, _njit
 from .motion import global_translation
 
 __all__ = ["global_translation_jit"]

@@ -17,7 +17,7 @@ Steps, in the paper's order (Fig. 1), with our additions marked *beyond*:
 
 Steps 1 (without the camera motion) and the background model run in :meth:`HosDetector.segment`,
 the rest in :meth:`HosDetector.analyse`, so that a caller can overlap the two on two threads
-(``daemon.detection``); :meth:`HosDetector.process` runs both.
+(``daemon.service.detection``); :meth:`HosDetector.process` runs both.
 
 The detector is pure: no I/O, no threads, no clock. Its state is the background model and the
 exposure gain (``segment``), and the running background of the photometric rule, the per-pixel
@@ -74,7 +74,7 @@ class Segmented:
     """What :meth:`HosDetector.segment` hands to :meth:`HosDetector.analyse` for one frame.
 
     The two stages share no mutable state, so a caller may run ``segment`` of frame n+1 on a
-    worker thread while ``analyse`` of frame n runs (``daemon.detection`` does).
+    worker thread while ``analyse`` of frame n runs (``daemon.service.detection`` does).
     ``segment`` does only what the background model needs (the exposure gain) and the model
     itself; everything that can wait for the model's foreground is done by ``analyse``, so that
     the thread running MOG2, whose cost is the floor of the method, does little else.

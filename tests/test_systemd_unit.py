@@ -240,7 +240,7 @@ except PermissionError:
     pass
 import numpy as np, cv2, av, mcap, zenoh
 from hos.pipeline import HosDetector
-from hos.render import demo_frames
+from drivers.simulator import demo_frames
 a = np.random.default_rng(0).random((300, 300))
 assert (a @ a).shape == (300, 300)
 det = HosDetector()

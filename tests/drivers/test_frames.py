@@ -17,7 +17,9 @@ import pytest
 
 from drivers.demo import DemoSource
 from drivers.errors import ConfigError, InputError, SourceError
-from drivers.frames import FileSource, LiveFrame, MemorySource, mask_credentials, open_source
+from drivers.file_source import FileSource
+from drivers.frames import LiveFrame, MemorySource, mask_credentials
+from drivers.sources import open_source
 from drivers.stream import StreamSource
 from drivers.v4l2 import V4L2Source
 

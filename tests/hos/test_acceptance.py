@@ -11,13 +11,13 @@ import math
 import numpy as np
 import pytest
 
+from drivers.simulator import Scene, SceneParams, SnowParams, StreakParams, render_streaks
 from hos import DetectorParams, HosDetector, State
 from hos.blobs import find_blobs
 from hos.histogram import hos_histogram
 from hos.mixture import fit_mixture
 from hos.moments import orientation_uncertainty
 from hos.pipeline import classify_blobs
-from hos.render import Scene, SceneParams, SnowParams, StreakParams, render_streaks
 
 pytestmark = pytest.mark.slow
 

@@ -14,10 +14,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
+from drivers.simulator import Scene, SceneParams, StreakParams
 from hos import HosDetector, _jit
 from hos.background import mask_to_index, photometric_rule
 from hos.blobs import CandidateRate, blob_mean_rate, find_blobs, find_blobs_sparse
-from hos.render import Scene, SceneParams, StreakParams
 
 REPO = Path(__file__).resolve().parents[2]
 needs_jit = pytest.mark.skipif(not _jit.ENABLED, reason=f"no JIT: {_jit.why_disabled()}")

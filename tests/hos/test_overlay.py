@@ -3,9 +3,9 @@ import math
 import numpy as np
 import pytest
 
+from drivers.simulator import Scene, SceneParams, StreakParams
 from hos import BlobClass, HosDetector
 from hos.overlay import CLASS_COLOURS, draw_overlay
-from hos.render import Scene, SceneParams, StreakParams
 
 
 @pytest.fixture(scope="module")

@@ -1,0 +1,139 @@
+"""``weatherd detect VIDEO``: the detector over a video file or image folder, offline."""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import os
+import sys
+import time
+from collections import deque
+from collections.abc import Iterator
+from typing import TextIO
+
+import numpy as np
+
+from daemon.service.detection import detect_frames
+from drivers.errors import WeatherdError
+from drivers.video import Frame, VideoWriter, open_video, read_roi_mask, roi_for_size
+from hos.overlay import draw_overlay
+from hos.pipeline import HosDetector
+from hos.result import FrameResult
+
+from .common import EXIT_INTERRUPTED, EXIT_OK, StopOnSignals, config_params
+
+__all__ = ["read_roi", "register"]
+
+
+def _detect(args: argparse.Namespace) -> int:
+    """``weatherd detect VIDEO``: the detector over a file or image folder, offline."""
+    params = config_params(args.config)[1]
+    frames = rain_frames = skipped = 0
+    interrupted = False
+    with contextlib.ExitStack() as stack:  # closed in reverse: overlay, JSONL, video
+        video = stack.enter_context(open_video(args.video))
+        roi = read_roi(args.roi, width=video.width, height=video.height) if args.roi else None
+        detector = HosDetector(params, roi=roi)
+        jsonl = stack.enter_context(_jsonl_output(args.jsonl)) if args.jsonl else None
+        overlay = (
+            stack.enter_context(
+                VideoWriter(args.overlay, width=video.width, height=video.height, fps=video.fps)
+            )
+            if args.overlay
+            else None
+        )
+        in_flight: deque[Frame] = deque()  # frames whose result is not out yet (at most 2)
+
+        def decoded() -> Iterator[tuple[float, np.ndarray]]:
+            for frame in video:
+                in_flight.append(frame)
+                yield frame.t_s, frame.gray
+
+        started = time.perf_counter()
+        results = detect_frames(detector, decoded())  # segmentation of n+1 beside analysis of n
+        # Ctrl-C (or SIGTERM) sets a flag read between frames, rather than raising wherever the
+        # main thread happens to be (inside a compiled kernel, the exception would be garbled);
+        # a second one ends the process at once.
+        stop = StopOnSignals()
+        try:
+            for result in results:
+                frame = in_flight.popleft()
+                if jsonl is not None:
+                    jsonl.write(_json_line(result))
+                if overlay is not None:
+                    overlay.write(draw_overlay(frame.gray, result, params=params))
+                frames += 1
+                rain_frames += bool(result.rain)
+                if stop.event.is_set():
+                    interrupted = True
+                    break
+        except KeyboardInterrupt:
+            interrupted = True
+        finally:
+            stop.restore()
+            results.close()  # stops the segmentation worker
+        elapsed = time.perf_counter() - started
+        skipped = video.frames_skipped
+    if not args.quiet:
+        rate = frames / elapsed if elapsed > 0 else 0.0
+        notes = [f"{skipped} corrupt frame(s) skipped"] if skipped else []
+        notes += ["interrupted"] if interrupted else []
+        print(
+            f"weatherd: {args.video}: {frames} frames, {rain_frames} with rain, "
+            f"{rate:.1f} frames/s" + "".join(f"; {n}" for n in notes),
+            file=sys.stderr,
+        )
+    return EXIT_INTERRUPTED if interrupted else EXIT_OK
+
+
+def _json_line(result: FrameResult) -> str:
+    return json.dumps(result.to_json(), separators=(",", ":"), allow_nan=False) + "\n"
+
+
+@contextlib.contextmanager
+def _jsonl_output(target: str) -> Iterator[TextIO]:
+    """The JSONL stream: ``-`` is stdout, anything else a file (overwritten)."""
+    if target == "-":
+        try:
+            yield sys.stdout
+        finally:
+            sys.stdout.flush()
+        return
+    try:
+        stream = open(target, "w", encoding="utf-8")
+    except OSError as exc:
+        raise WeatherdError(f"{target}: cannot write ({exc.strerror or exc})") from None
+    with stream:
+        yield stream
+
+
+def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.ndarray:
+    """The region of interest: (height, width) bool, True where analysed.
+
+    Any image; nonzero pixels are analysed. Resized with nearest neighbour if its size differs.
+
+    Raises
+    ------
+    InputError : unreadable image, or a mask that selects no pixel.
+    """
+    return roi_for_size(read_roi_mask(path), width=width, height=height)
+
+
+def register(commands: argparse._SubParsersAction, parents: list[argparse.ArgumentParser]) -> None:
+    """Add ``weatherd detect`` to ``commands``."""
+    detect = commands.add_parser(
+        "detect",
+        parents=parents,
+        help="offline detection on a video file or image folder",
+        description="Run the detector over a video file or a folder of images.",
+    )
+    detect.add_argument("video", metavar="VIDEO", help="video file, or folder of images")
+    detect.add_argument(
+        "--jsonl", metavar="PATH", help="write one JSON object per frame ('-' for stdout)"
+    )
+    detect.add_argument("--overlay", metavar="OUT", help="write the overlay video (.mp4...)")
+    detect.add_argument("--config", metavar="PATH", help="TOML file; its [detector] table")
+    detect.add_argument("--roi", metavar="MASK", help="mask image, nonzero = analysed")
+    detect.add_argument("--quiet", action="store_true", help="no summary line on stderr")
+    detect.set_defaults(handler=_detect)

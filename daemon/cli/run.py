@@ -1,0 +1,50 @@
+"""``weatherd run``: the service, until SIGINT or SIGTERM."""
+
+from __future__ import annotations
+
+import argparse
+import faulthandler
+import logging
+import signal
+
+from .common import StopOnSignals
+
+__all__ = ["register"]
+
+log = logging.getLogger(__name__)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """``weatherd run``: the service, until SIGINT or SIGTERM (a second one forces the exit).
+
+    Exit statuses: 0 after a signal, 2 for a configuration error (systemd does not restart on
+    it), 1 for anything unexpected (systemd restarts).
+    """
+    from daemon.config import load_config, parse_config
+    from daemon.service.app import Daemon  # imports Zenoh and the recorder only when needed
+
+    # A watchdog timeout is a SIGABRT: the journal then shows where every thread was.
+    faulthandler.enable(all_threads=True)
+
+    config = load_config(args.config) if args.config else parse_config({})
+    stop = StopOnSignals()
+    try:
+        status = Daemon(config, stop=stop.event).run()
+    finally:
+        stop.restore()
+    if stop.signum is not None:
+        log.info("%s received; exited cleanly", signal.Signals(stop.signum).name)
+    return status
+
+
+def register(commands: argparse._SubParsersAction, parents: list[argparse.ArgumentParser]) -> None:
+    """Add ``weatherd run`` to ``commands``."""
+    run = commands.add_parser(
+        "run",
+        parents=parents,
+        help="the daemon: cameras in, weather state out over Zenoh, MCAP on disk",
+        description="Run the service until SIGINT or SIGTERM. Without a camera in the "
+        "configuration it watches the built-in demo camera.",
+    )
+    run.add_argument("--config", metavar="PATH", help="TOML configuration file")
+    run.set_defaults(handler=_run)

@@ -1,0 +1,137 @@
+"""``weatherd instruments decode``: the contract JSON lines, bad lines reported, never fatal."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import (
+    run_weatherd,
+)
+
+CONTRACT = (
+    "t",
+    "driver",
+    "visibility_m",
+    "rain_rate_mm_h",
+    "rain_accum_mm",
+    "wawa",
+    "metar",
+    "status",
+)
+
+
+def decode(*args: object) -> subprocess.CompletedProcess[str]:
+    return run_weatherd("instruments", "decode", *args)
+
+
+@pytest.mark.parametrize(
+    ("driver", "path", "n", "first"),
+    [
+        (
+            "vaisala-pwd",
+            "vaisala-fd12p/PW040406.DAT",
+            3,
+            {"visibility_m": 9163.0, "rain_rate_mm_h": 0.18, "rain_accum_mm": 50.3, "wawa": 52},
+        ),
+        (
+            "ott-parsivel",
+            "ott-parsivel2/bucharest_0000000123_20231025221800.txt",
+            1,
+            {
+                "rain_rate_mm_h": 2.356,
+                "rain_accum_mm": 5.48,
+                "wawa": 61,
+                "metar": "-RA",
+                "visibility_m": 8134.0,
+            },
+        ),
+        (
+            "ott-parsivel",
+            "ott-parsivel2/Lindenberg_Parsivel_20231204.log",
+            3,
+            {"t": "2023-12-04T00:00:47Z", "rain_rate_mm_h": 0.0},
+        ),
+        (
+            "thies-lnm",
+            "thies-lnm/2024041723-leipzig-lim.txt",
+            3,
+            {"t": "2024-04-17T23:00:50Z", "rain_rate_mm_h": 0.0, "wawa": 0},
+        ),
+        (
+            "lambrecht-raine",
+            "lambrecht-raine/Lindenberg_RainE_20230514.txt",
+            18,
+            {"t": "2023-05-14T00:00:39Z", "rain_rate_mm_h": 0.0, "rain_accum_mm": 0.406},
+        ),
+    ],
+)
+def test_real_captures(shared_fixtures: Path, driver: str, path: str, n: int, first: dict) -> None:
+    proc = decode("--driver", driver, shared_fixtures / "instruments" / path)
+    assert proc.returncode == 0, proc.stderr
+    lines = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert len(lines) == n
+    for rec in lines:
+        assert set(CONTRACT) <= set(rec) and rec["driver"] == driver
+        assert rec["t"] is None or rec["t"].endswith("Z")
+    assert {k: lines[0][k] for k in first} == first
+    assert f"{n} readings, 0 bad frame(s)" in proc.stderr
+
+
+def test_bad_lines_are_reported_with_their_number_and_counted(tmp_path: Path) -> None:
+    good = b"\x01PW  1\x02 00  6839  7505   R-   61   61   61  0.33  12.16     0\x03\r\n"
+    capture = tmp_path / "pwd.raw"
+    capture.write_bytes(
+        b"\xff\xfe power-up garbage\r\n" + good + b"\x01PW  1\x02 00 12 //\x03\r\n" + good
+    )
+    proc = decode("--driver", "vaisala-pwd", capture)
+    assert proc.returncode == 0, proc.stderr
+    readings = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert len(readings) == 2
+    assert readings[0]["rain_rate_mm_h"] == 0.33 and readings[0]["t"] is None
+    bad = [line for line in proc.stderr.splitlines() if f"{capture}:" in line and ": " in line]
+    assert any(f"{capture}:3:" in line for line in bad), proc.stderr
+    assert any(f"{capture}:1:" in line for line in bad)  # the power-up garbage line
+    assert "2 readings, 2 bad frame(s)" in proc.stderr
+
+
+def test_driver_options_and_the_tipping_bucket_capture(tmp_path: Path) -> None:
+    capture = tmp_path / "tips.txt"
+    capture.write_text(
+        "".join(f"2024-05-01T10:00:{s:02d}Z tip\n" for s in range(0, 60, 10))
+        + "2024-05-01T10:01:30Z tip\nnot a line\n2024-05-01T10:02:05Z tip\n"
+    )
+    proc = decode(
+        "--driver",
+        "tipping-bucket",
+        capture,
+        "--option",
+        "mm_per_tip=0.5",
+        "--option",
+        "report_interval_s=60",
+    )
+    assert proc.returncode == 0, proc.stderr
+    readings = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert readings[0]["rain_rate_mm_h"] == pytest.approx(6 * 0.5 * 60)
+    assert "not a line" in proc.stderr or ":8:" in proc.stderr
+
+
+@pytest.mark.parametrize(
+    ("args", "names"),
+    [
+        (["--driver", "vaisala-pwd", "missing.dat"], "missing.dat"),
+        (["--driver", "no-such-driver", "x"], "--driver"),
+        (["--driver", "tipping-bucket", "FILE", "--option", "mm_per_tip=-1"], "mm_per_tip"),
+        (["--driver", "ascii-regex", "FILE", "--option", "pattern='('"], "pattern"),
+    ],
+)
+def test_errors_are_one_line_and_exit_2(tmp_path: Path, args: list[str], names: str) -> None:
+    f = tmp_path / "capture.txt"
+    f.write_text("2024-05-01T10:00:00Z tip\n")
+    proc = decode(*[str(f) if a == "FILE" else a for a in args])
+    lines = [line for line in proc.stderr.splitlines() if line.strip()]
+    assert proc.returncode == 2, proc.stderr
+    assert len(lines) == 1 and lines[0].startswith("weatherd: error: ") and names in lines[0]
