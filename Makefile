@@ -3,15 +3,27 @@ PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
+# The versions that were tested, for every platform (docs/install.md: "Upgrading").
+LOCK := requirements.lock
+DEV_LOCK := requirements-dev.lock
+PIP_VERSION := 26.3
+# `make wheelhouse`: wheels for these targets (CPython, glibc >= 2.35: Debian 12, Ubuntu 22.04).
+WHEEL_ARCHS ?= x86_64 aarch64
+WHEEL_PYTHON ?= 3.11
+WHEEL_GLIBC_MINORS := $(shell seq 17 35)
 
-.PHONY: install run test lint format bench clean
+.PHONY: install run test lint format bench lock wheelhouse clean
 
 install: $(STAMP)
 
-$(STAMP): pyproject.toml
+$(STAMP): pyproject.toml $(LOCK) $(DEV_LOCK)
+	@echo "installing into $(VENV) the versions pinned in $(DEV_LOCK)"
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test]'
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check 'pip==$(PIP_VERSION)'
+	@# setuptools warns about every editable install that folders named like its packages may
+	@# shadow them: here they are those packages.
+	PYTHONWARNINGS="ignore:Editable installation" \
+		$(BIN)/python -m pip install --quiet --disable-pip-version-check -c $(DEV_LOCK) -e '.[test]'
 	@# Compile the detector's numba kernels into their on-disk cache now (a few seconds, once),
 	@# not during the first run.
 	$(BIN)/python -c "import hos._jit as j; print(f'detector kernels ready ({j.warm_up():.1f} s)')"
@@ -33,7 +45,31 @@ test: install lint
 
 bench: install
 	$(BIN)/python bench/bench_detector.py
+	$(BIN)/python bench/bench_memory.py
 	$(BIN)/python bench/bench_zenoh_sites.py --sites 200 --seconds 20
 
+# Resolve pyproject.toml's ranges again to today's newest versions, for every platform
+# (uv's universal resolution), then `make test` and commit both files.
+lock: install
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check uv
+	$(BIN)/uv pip compile pyproject.toml --universal --python-version 3.11 --no-header \
+		--annotation-style line --upgrade -o $(LOCK)
+	$(BIN)/uv pip compile pyproject.toml --extra test --universal --python-version 3.11 \
+		--no-header --annotation-style line -c $(LOCK) -o $(DEV_LOCK)
+
+# Every wheel the daemon needs, per target, for an installation without network
+# (docs/install.md: "Offline"). Fails when a dependency has no wheel for a target.
+wheelhouse: install
+	rm -rf wheelhouse
+	$(BIN)/python -m pip wheel --quiet --disable-pip-version-check --no-deps -w wheelhouse/any .
+	for arch in $(WHEEL_ARCHS); do \
+		$(BIN)/python -m pip download --quiet --disable-pip-version-check --no-deps \
+			--only-binary=:all: --implementation cp --python-version $(WHEEL_PYTHON) \
+			$(foreach m,$(WHEEL_GLIBC_MINORS),--platform manylinux_2_$(m)_$$arch) \
+			--platform manylinux2014_$$arch -r $(LOCK) -d wheelhouse/$$arch || exit 1; \
+		cp wheelhouse/any/*.whl wheelhouse/$$arch/; \
+		echo "wheelhouse/$$arch: $$(ls wheelhouse/$$arch | wc -l) wheels"; \
+	done
+
 clean:
-	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache
+	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache wheelhouse

@@ -14,18 +14,21 @@ __all__ = ["ENABLED", "_njit", "numba", "why_disabled"]
 
 log = logging.getLogger(__name__)
 
-try:  # numba is a dependency, but the detector must still run (slower) where it cannot load
-    import numba
-except Exception as exc:
-    numba = None
-    _why = f"numba unavailable ({exc.__class__.__name__}: {exc})"
-else:
-    _why = ""
+#: False when ``HOS_JIT=0``: numba is then not even imported (it and the LLVM it loads cost
+#: 50 MiB at import and as much again once the kernels are loaded).
+_WANTED = os.environ.get("HOS_JIT", "1") != "0"
+numba = None
+_why = "HOS_JIT=0"
+if _WANTED:
+    try:  # numba is a dependency, but the detector must still run (slower) where it cannot load
+        import numba
+    except Exception as exc:
+        _why = f"numba unavailable ({exc.__class__.__name__}: {exc})"
+    else:
+        _why = ""
 
 #: True when the compiled kernels are used (numba imported and ``HOS_JIT`` is not "0").
-ENABLED = numba is not None and os.environ.get("HOS_JIT", "1") != "0"
-if numba is not None and not ENABLED:
-    _why = "HOS_JIT=0"
+ENABLED = numba is not None
 
 
 def why_disabled() -> str:

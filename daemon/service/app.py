@@ -47,6 +47,7 @@ from hos.params import DetectorParams
 from . import sdnotify
 from .calibration import CalibrationParams, OnlineCalibration, load_calibration_file
 from .capture import CaptureThread
+from .clock import clock_status
 from .detection import detect_frames
 from .fusion import CameraWindow, fuse
 from .instruments import InstrumentHub
@@ -301,6 +302,7 @@ class Daemon:
         self.publisher: Publisher | _NoPublisher = _NoPublisher()
         self.pipelines: list[CameraPipeline] = []
         self._versions = versions()
+        self._clock_synchronized: object = "unset"  # logged when it changes
 
     # -- life cycle ----------------------------------------------------------------------------
     def run(self) -> int:
@@ -495,8 +497,26 @@ class Daemon:
             zenoh=self.publisher.stats(),
             instruments=self.instruments.stats(),
             calibration=self.calibration.quality(t_ns),
+            clock=self._clock(),
             pid=os.getpid(),
         )
+
+    def _clock(self) -> dict[str, Any]:
+        """The system clock's synchronisation, for the status; a log line when it changes."""
+        clock = clock_status()
+        if clock.synchronized != self._clock_synchronized:
+            self._clock_synchronized = clock.synchronized
+            if clock.synchronized:
+                log.info("clock synchronised (%s)", clock.source)
+            elif clock.synchronized is None:
+                log.warning("clock synchronisation unknown: recorded UTC times are unchecked")
+            else:
+                log.warning(
+                    "clock NOT synchronised (%s): recorded UTC times may be wrong, and the "
+                    "offline comparison with station data with them",
+                    clock.source,
+                )
+        return clock.to_json()
 
 
 def _calibration(config: Config) -> OnlineCalibration:

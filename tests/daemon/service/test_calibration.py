@@ -4,6 +4,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +14,7 @@ import pytest
 
 from daemon.service.calibration import CalibrationParams, OnlineCalibration, load_calibration_file
 from drivers.errors import ConfigError
+from tests.conftest import REPO
 
 W = 60.0  # window, seconds
 T0 = 1_700_000_000 * 10**9
@@ -128,3 +132,42 @@ def test_an_offline_calibration_is_the_prior(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="model"):
         load_calibration_file(bad)
     assert math.isfinite(cal.x[0])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_kalman_steps_equal_filterpy(seed):
+    """The written-out predict/update are filterpy's (Joseph form), over a run of windows."""
+    from filterpy.kalman import predict, update
+
+    from daemon.service.calibration import kf_predict, kf_update
+
+    rng = np.random.default_rng(seed)
+    x = ours_x = np.array([math.log(0.004), 1.0])
+    P = ours_P = np.diag([4.0, 0.25])
+    Q = np.diag([1e-4, 1e-5])
+    for _ in range(50):
+        H = np.array([[1.0, math.log(rng.uniform(50, 20_000))]])
+        z, r = float(rng.normal(-2.0, 1.5)), float(rng.uniform(0.01, 0.5))
+        x, P = predict(x, P, F=np.eye(2), Q=Q)
+        x, P = update(x, P, z, r, H)
+        ours_x, ours_P = kf_predict(ours_x, ours_P, Q)
+        ours_x, ours_P = kf_update(ours_x, ours_P, z, r, H)
+        np.testing.assert_allclose(ours_x, np.asarray(x).reshape(2), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(ours_P, P, rtol=1e-12, atol=1e-12)
+
+
+def test_the_daemon_does_not_import_filterpy_or_scipy_stats():
+    """57 MiB and 0.8 s of start-up: the service's modules must not pull them in."""
+    code = (
+        "import sys, daemon.service.app, daemon.service.calibration; "
+        "print(sorted(m for m in ('filterpy', 'scipy.stats') if m in sys.modules))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=REPO,
+        env={**os.environ, "HOS_JIT": "0", "PYTHONPATH": str(REPO)},
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout.strip()
+    assert out == "[]"
