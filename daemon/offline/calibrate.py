@@ -66,7 +66,6 @@ __all__ = [
     "fit_calibration",
     "fit_model",
     "predict",
-    "prediction_band",
     "scores",
     "toml_text",
     "write_calibration_toml",
@@ -138,6 +137,19 @@ class Fit:
     def predict(self, r: np.ndarray | float) -> np.ndarray:
         """Rain rate, mm/h, for R (relative units)."""
         return predict(self.a, self.b, r)
+
+    def band(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) mm/h: the pointwise bootstrap interval of ``a·R^b`` at each R of ``r``, at
+        ``ci_level`` and containing the fit itself (for ``linear``, exactly ``a_ci``·R)."""
+        r = np.asarray(r, dtype=np.float64)
+        fitted = self.predict(r)
+        ok = np.isfinite(self.boot_a) & np.isfinite(self.boot_b)
+        if not ok.any():
+            return fitted, fitted
+        preds = predict(self.boot_a[ok, None], self.boot_b[ok, None], r[None, :])
+        q = (100 * (1 - self.ci_level) / 2, 100 * (1 + self.ci_level) / 2)
+        lo, hi = np.percentile(preds, q, axis=0)
+        return np.minimum(lo, fitted), np.maximum(hi, fitted)
 
 
 def predict(a: float, b: float, r: np.ndarray | float) -> np.ndarray:
@@ -367,20 +379,6 @@ def ci_bounds(
     q = (100 * (1 - ci_level) / 2, 100 * (1 + ci_level) / 2)
     lo, hi = np.percentile(finite, q)
     return (float(min(lo, estimate)), float(max(hi, estimate)))
-
-
-def prediction_band(fit: Fit, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(lo, hi) mm/h: the pointwise bootstrap interval of ``a·R^b`` at each R of ``r``, at the
-    fit's ``ci_level`` and containing the fit itself (for ``linear``, exactly ``a_ci``·R)."""
-    r = np.asarray(r, dtype=np.float64)
-    fitted = fit.predict(r)
-    ok = np.isfinite(fit.boot_a) & np.isfinite(fit.boot_b)
-    if not ok.any():
-        return fitted, fitted
-    preds = predict(fit.boot_a[ok, None], fit.boot_b[ok, None], r[None, :])
-    q = (100 * (1 - fit.ci_level) / 2, 100 * (1 + fit.ci_level) / 2)
-    lo, hi = np.percentile(preds, q, axis=0)
-    return np.minimum(lo, fitted), np.maximum(hi, fitted)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -33,7 +33,6 @@ from matplotlib.figure import Figure
 
 from drivers.errors import InputError
 
-from .calibrate import prediction_band
 from .series import IntervalStats, Series, mean_histograms
 
 __all__ = [
@@ -209,7 +208,7 @@ def plot_calibration(
     r_hi = max(float(points.r_all.max()) if points.r_all.size else 0.0, float(points.r.max()))
     grid = np.linspace(0.0, r_hi * 1.05, 200)[1:]
     if chosen.boot_a.size:
-        lo, hi = prediction_band(chosen, grid)
+        lo, hi = chosen.band(grid)
         ax.fill_between(
             grid,
             lo,

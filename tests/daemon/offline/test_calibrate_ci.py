@@ -13,7 +13,6 @@ from daemon.offline.calibrate import (
     ci_bounds,
     fit_calibration,
     fit_model,
-    prediction_band,
 )
 from daemon.offline.report import fitted_labels
 
@@ -47,7 +46,7 @@ def test_plotted_band_contains_the_fit_and_matches_the_ci():
     r, y = tight_with_low_outliers(10)
     fit = fit_model(r, y, model="linear", n_boot=300, seed=0)
     grid = np.linspace(1.0, 2500.0, 50)
-    lo, hi = prediction_band(fit, grid)
+    lo, hi = fit.band(grid)
     fitted = fit.predict(grid)
     assert np.all(lo <= fitted) and np.all(fitted <= hi)
     np.testing.assert_allclose(lo, fit.a_ci[0] * grid, rtol=1e-9)
