@@ -4,7 +4,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install run test lint format bench clean
+.PHONY: install run test lint format bench clean example
 
 install: $(STAMP)
 
@@ -30,6 +30,11 @@ format: install
 
 test: install lint
 	$(BIN)/python -m pytest -q
+
+# The worked example of docs/offline.md: a short rainy MCAP log and a matching gauge CSV, made
+# by the simulator into build/example (about 30 s).
+example: install
+	PATH="$(CURDIR)/$(BIN):$$PATH" sh docs/example/make_example.sh build/example
 
 bench: install
 	$(BIN)/python bench/bench_detector.py

@@ -527,7 +527,8 @@ def load_series(
     """
     for name, value in (("min_judged", min_judged), ("min_coverage", min_coverage)):
         if not 0.0 <= value <= 1.0:
-            raise InputError(f"{name} must be within [0, 1], got {value}")
+            option = "--" + name.replace("_", "-")
+            raise InputError(f"{option} ({name}) must be within [0, 1], got {value}")
     mcap_paths = list(mcap_paths)
     if not mcap_paths:
         raise InputError("no MCAP file given")
