@@ -36,7 +36,6 @@ def progress_bar(
         total=total or None,
         desc=desc,
         unit=unit,
-        unit_scale=True,
         leave=False,
         dynamic_ncols=True,
         mininterval=0.5,
