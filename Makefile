@@ -12,7 +12,7 @@ WHEEL_ARCHS ?= x86_64 aarch64
 WHEEL_PYTHON ?= 3.11
 WHEEL_GLIBC_MINORS := $(shell seq 17 35)
 
-.PHONY: install run test lint format bench lock wheelhouse clean
+.PHONY: install run test lint format bench lock wheelhouse example clean
 
 install: $(STAMP)
 
@@ -42,6 +42,11 @@ format: install
 
 test: install lint
 	$(BIN)/python -m pytest -q
+
+# The worked example of docs/offline.md: a short rainy MCAP log and a matching gauge CSV, made
+# by the simulator into build/example (about 30 s).
+example: install
+	PATH="$(CURDIR)/$(BIN):$$PATH" sh docs/example/make_example.sh build/example
 
 bench: install
 	$(BIN)/python bench/bench_detector.py

@@ -33,6 +33,7 @@ from . import (
     reference,
     replay,
     run,
+    simulate,
     watch,
 )
 from .common import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_USAGE, ArgumentParser, print_error
@@ -42,6 +43,7 @@ __all__ = ["main"]
 #: The subcommands, in the order ``weatherd --help`` lists them.
 COMMANDS = (
     detect,
+    simulate,
     run,
     check_config,
     replay,

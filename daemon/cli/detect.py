@@ -14,6 +14,7 @@ from typing import TextIO
 
 import numpy as np
 
+from daemon.offline.progress import progress_bar
 from daemon.service.detection import detect_frames
 from drivers.errors import WeatherdError
 from drivers.video import Frame, VideoWriter, open_video, read_roi_mask, roi_for_size
@@ -56,6 +57,10 @@ def _detect(args: argparse.Namespace) -> int:
         # main thread happens to be (inside a compiled kernel, the exception would be garbled);
         # a second one ends the process at once.
         stop = StopOnSignals()
+        total = getattr(video, "frame_count", None)  # known when the container says
+        bar = progress_bar(total, desc=os.path.basename(args.video), enabled=not args.quiet)
+        if bar is not None:
+            stack.callback(bar.close)
         try:
             for result in results:
                 frame = in_flight.popleft()
@@ -65,6 +70,8 @@ def _detect(args: argparse.Namespace) -> int:
                     overlay.write(draw_overlay(frame.gray, result, params=params))
                 frames += 1
                 rain_frames += bool(result.rain)
+                if bar is not None:
+                    bar.update(1)
                 if stop.event.is_set():
                     interrupted = True
                     break

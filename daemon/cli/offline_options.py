@@ -27,6 +27,8 @@ def offline_options(args: argparse.Namespace) -> dict[str, Any]:
         "station": args.station,
         "camera": args.camera,
         "threshold_mm": args.threshold_mm,
+        "min_judged": args.min_judged,
+        "min_coverage": args.min_coverage,
         "plots_dir": args.plots,
         "report": _report_path(args),
         "reference_options": _reference_options(args),
@@ -51,6 +53,22 @@ def offline_parser() -> argparse.ArgumentParser:
         default=0.1,
         metavar="MM",
         help="reference amount from which an interval is wet (default 0.1)",
+    )
+    offline.add_argument(
+        "--min-judged",
+        type=float,
+        default=0.5,
+        metavar="F",
+        help="least share of an interval's frames the camera must have judged for the "
+        "interval to be used (default 0.5)",
+    )
+    offline.add_argument(
+        "--min-coverage",
+        type=float,
+        default=0.5,
+        metavar="F",
+        help="least share of an interval's length its frames must span for it to be used "
+        "(default 0.5)",
     )
     offline.add_argument("--format", metavar="FMT", help="force the reference format")
     offline.add_argument("--tz", default="UTC", help="time zone of naive reference times")

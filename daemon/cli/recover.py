@@ -28,6 +28,16 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         description="Copy every complete message of an unfinished or truncated MCAP file into "
         "a new, finished one.",
     )
-    recover.add_argument("broken", metavar="BROKEN.mcap")
-    recover.add_argument("out", metavar="OUT.mcap")
+    recover.add_argument(
+        "broken",
+        metavar="BROKEN.mcap",
+        help="the unfinished or truncated recording (a *.mcap.part left by a crash, or a file "
+        "the MCAP reader cannot open); it is only read",
+    )
+    recover.add_argument(
+        "out",
+        metavar="OUT.mcap",
+        help="the finished file to write, with every complete message of BROKEN.mcap (written "
+        "under a temporary name, then renamed; may be BROKEN.mcap itself)",
+    )
     recover.set_defaults(handler=_recover)

@@ -40,8 +40,20 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         description="Run the detector over video files (one after the other, as one camera) "
         "and write the same MCAP topics as the daemon.",
     )
-    replay.add_argument("videos", metavar="VIDEO", nargs="+")
-    replay.add_argument("--out", metavar="FILE.mcap", required=True)
+    replay.add_argument(
+        "videos",
+        metavar="VIDEO",
+        nargs="+",
+        help="video files (.mp4, .mkv, .avi...) or folders of images, in the order they "
+        "were filmed; each starts a fresh detector and follows the previous one in time",
+    )
+    replay.add_argument(
+        "--out",
+        metavar="FILE.mcap",
+        required=True,
+        help="the MCAP log to write (overwritten; its folder is created), with the daemon's "
+        "topics: per-frame results, histograms, thumbnails, camera summaries and site state",
+    )
     replay.add_argument(
         "--start",
         metavar="ISO-8601",

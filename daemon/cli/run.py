@@ -46,5 +46,14 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         description="Run the service until SIGINT or SIGTERM. Without a camera in the "
         "configuration it watches the built-in demo camera.",
     )
-    run.add_argument("--config", metavar="PATH", help="TOML configuration file")
+    run.add_argument(
+        "--config",
+        metavar="PATH",
+        help="TOML configuration file (see config/weatherd.toml). Without it: site 'demo', "
+        "the built-in demo camera (a synthetic street, rain and snow in turn), MCAP "
+        "recordings under ./recordings ($STATE_DIRECTORY/recordings under systemd), and Zenoh "
+        "in peer mode with no fixed listen endpoint, which 'weatherd watch' cannot find: to "
+        "watch the demo, run with --config config/weatherd.toml (it listens on "
+        "tcp/127.0.0.1:7447)",
+    )
     run.set_defaults(handler=_run)

@@ -18,6 +18,7 @@ def _watch(args: argparse.Namespace) -> int:
         zenoh_conf(args),
         count=args.count,
         timeout_s=args.timeout,
+        human=args.format == "text",
     )
 
 
@@ -27,8 +28,23 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         "watch",
         parents=[*parents, zenoh_parser()],
         help="print what the daemon publishes (a Zenoh subscriber)",
-        description="Subscribe to KEYEXPR and print one JSON line per sample.",
+        description="Subscribe to KEYEXPR and print one JSON line per sample (or one short "
+        "line with --format text) until Ctrl-C. When no Zenoh peer or router can be reached "
+        "after a few seconds, or nothing is published, it says so on stderr and keeps waiting.",
     )
-    watch.add_argument("keyexpr", metavar="KEYEXPR", nargs="?", default="weather/**")
+    watch.add_argument(
+        "keyexpr",
+        metavar="KEYEXPR",
+        nargs="?",
+        default="weather/**",
+        help="what to follow, e.g. 'weather/demo/state' (default: weather/**, every site)",
+    )
     watch.add_argument("--count", type=int, metavar="N", help="stop after N samples")
+    watch.add_argument(
+        "--format",
+        choices=("json", "text"),
+        default="json",
+        help="json: one JSON line per sample, the whole payload (default); text: one short "
+        "line for a person (time, key, precipitation, type, rate, cameras' states)",
+    )
     watch.set_defaults(handler=_watch)

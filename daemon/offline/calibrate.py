@@ -17,7 +17,11 @@ The fit
     robust scale cannot be estimated: plain least squares. The log-space intercept estimates
     the median rate; Duan's smearing factor (the weighted mean of exp(residual)) turns it into
     the mean rate. Confidence intervals: percentile bootstrap over the intervals (``n_boot``
-    resamples, seeded, so the same data give the same CI).
+    resamples, seeded, so the same data give the same CI); each resample is refitted by
+    Tukey's IRLS from the data's estimate with the data's robust scale (a robust bootstrap:
+    re-estimating the scale on a resample that drew the outliers twice lets them win, and the
+    interval then slides off its own estimate — see :func:`_resample_rows`). The interval is
+    widened, if need be, to contain the estimate.
 Which intervals enter the fit
     *wet* intervals (reference ``precip_mm >= threshold_mm``) where the camera saw something
     (mean R > 0). *Dry* intervals and wet intervals with R = 0 (the camera saw nothing: night,
@@ -58,6 +62,7 @@ __all__ = [
     "Fit",
     "calibrate",
     "calibration_points",
+    "ci_bounds",
     "fit_calibration",
     "fit_model",
     "predict",
@@ -132,6 +137,19 @@ class Fit:
     def predict(self, r: np.ndarray | float) -> np.ndarray:
         """Rain rate, mm/h, for R (relative units)."""
         return predict(self.a, self.b, r)
+
+    def band(self, r: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(lo, hi) mm/h: the pointwise bootstrap interval of ``a·R^b`` at each R of ``r``, at
+        ``ci_level`` and containing the fit itself (for ``linear``, exactly ``a_ci``·R)."""
+        r = np.asarray(r, dtype=np.float64)
+        fitted = self.predict(r)
+        ok = np.isfinite(self.boot_a) & np.isfinite(self.boot_b)
+        if not ok.any():
+            return fitted, fitted
+        preds = predict(self.boot_a[ok, None], self.boot_b[ok, None], r[None, :])
+        q = (100 * (1 - self.ci_level) / 2, 100 * (1 + self.ci_level) / 2)
+        lo, hi = np.percentile(preds, q, axis=0)
+        return np.minimum(lo, fitted), np.maximum(hi, fitted)
 
 
 def predict(a: float, b: float, r: np.ndarray | float) -> np.ndarray:
@@ -291,14 +309,13 @@ def fit_model(
         for start in range(0, n_boot, rows_per_chunk):
             rows = min(rows_per_chunk, n_boot - start)
             idx = rng.integers(0, x.size, size=(rows, x.size))
-            ba, bb, _, _, bs = _robust_rows(u[idx], v[idx], slope=slope)
+            ba, bb, bs = _resample_rows(u[idx], v[idx], alpha[0], b_hat, scale[0], slope=slope)
             with np.errstate(over="ignore", invalid="ignore"):
                 parts_a.append(np.exp(ba) * bs)
             parts_b.append(bb)
         boot_a, boot_b = np.concatenate(parts_a), np.concatenate(parts_b)
-    q = (100 * (1 - ci_level) / 2, 100 * (1 + ci_level) / 2)
-    a_ci = _percentiles(boot_a, q, a_hat)
-    b_ci = _percentiles(boot_b, q, b_hat) if slope else (1.0, 1.0)
+    a_ci = ci_bounds(boot_a, a_hat, ci_level=ci_level)
+    b_ci = ci_bounds(boot_b, b_hat, ci_level=ci_level) if slope else (1.0, 1.0)
     weights = w[0]
     return Fit(
         model=model,
@@ -316,12 +333,52 @@ def fit_model(
     )
 
 
-def _percentiles(values: np.ndarray, q: tuple[float, float], fallback: float) -> tuple:
-    finite = values[np.isfinite(values)]
+def _resample_rows(
+    u: np.ndarray, v: np.ndarray, alpha: float, b: float, scale: float, *, slope: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The fit of each bootstrap resample (rows of ``u``, ``v``): (alpha, b, smearing factor).
+
+    With :data:`MIN_ROBUST` points or more, Tukey's IRLS started at the data's estimate with
+    the data's robust scale held fixed, in the manner of the robust bootstrap of Salibian-Barrera
+    & Zamar (Ann. Statist. 2002). Re-running the whole estimator on a resample (a least-squares
+    start and a new MAD) breaks down whenever the resample happens to draw the outliers more
+    often than the data hold them: with tight inliers and two low outliers among 8 intervals,
+    a third of the resamples then followed the outliers, the replicates of ``a`` had a long low
+    tail and none above, and the 95 % interval ended just above the estimate — the band of the
+    calibration plot lay below its own fit (issue 13).
+    """
+    if u.shape[1] < MIN_ROBUST:
+        alpha_r, b_r, _, _, smear = _robust_rows(u, v, slope=slope)
+        return alpha_r, b_r, smear
+
+    def tukey(res: np.ndarray) -> np.ndarray:
+        if not scale > 0:
+            return np.ones_like(res)
+        z = res / (_TUKEY_C * scale)
+        return np.where(np.abs(z) < 1.0, (1.0 - z * z) ** 2, 0.0)
+
+    rows = u.shape[0]
+    alpha_r, b_r, w = _irls(
+        u, v, np.full(rows, alpha), np.full(rows, b), tukey, slope=slope, steps=100
+    )
+    res = v - alpha_r[:, None] - b_r[:, None] * u
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        smear = (w * np.exp(res)).sum(axis=1) / w.sum(axis=1)
+    return alpha_r, b_r, smear
+
+
+def ci_bounds(
+    replicates: np.ndarray, estimate: float, *, ci_level: float = 0.95
+) -> tuple[float, float]:
+    """Percentile-bootstrap interval at ``ci_level`` of ``replicates`` (NaN ignored), widened
+    if need be to contain ``estimate``: an interval that leaves out the number it qualifies
+    says the bootstrap failed, and the estimate is still the best value there is."""
+    finite = replicates[np.isfinite(replicates)]
     if finite.size == 0:
-        return (fallback, fallback)
+        return (estimate, estimate)
+    q = (100 * (1 - ci_level) / 2, 100 * (1 + ci_level) / 2)
     lo, hi = np.percentile(finite, q)
-    return (float(min(lo, fallback)), float(max(hi, fallback)))
+    return (float(min(lo, estimate)), float(max(hi, estimate)))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -547,6 +604,40 @@ def write_calibration_toml(
     return table
 
 
+def _too_few(
+    points: CalibrationPoints,
+    series: Series,
+    camera: str,
+    stats: Sequence[IntervalStats],
+    *,
+    threshold_mm: float,
+) -> str:
+    """Why fewer than two intervals can be fitted: each rule that left intervals out, with
+    its count and the option that changes it."""
+    reasons = series.unused_reasons(camera)
+    used = [s for s in stats if s.used]
+    no_amount = sum(s.precip_mm is None for s in used)
+    if no_amount:
+        reasons.append(f"{no_amount} have no reference amount (missing data)")
+    if points.n_dry:
+        amounts = [s.precip_mm for s in used if s.precip_mm is not None]
+        reasons.append(
+            f"{points.n_dry} are dry: their amount is below --threshold-mm {threshold_mm:g} mm "
+            f"(the largest amount is {max(amounts):g} mm)"
+        )
+    if points.n_unseen:
+        reasons.append(
+            f"{points.n_unseen} are wet but the camera's mean R is 0 (it saw no rain: night, "
+            "fog, a lens it cannot see through)"
+        )
+    n_ref = series.counts.get("reference_intervals", len(stats))
+    return (
+        f"camera {camera}: {points.r.size} wet interval(s) with camera intensity R > 0, need at "
+        f"least 2 to calibrate: of {n_ref} reference interval(s), {points.r.size} can be "
+        "fitted; " + "; ".join(reasons)
+    )
+
+
 # ---------------------------------------------------------------------------------------------
 # The command
 
@@ -584,7 +675,7 @@ def calibrate(
     threshold_mm : reference amount at and above which an interval is wet, mm
     min_judged, min_coverage : see :func:`daemon.offline.series.aggregate`
     n_boot, seed : bootstrap resamples and their seed
-    progress : progress bar over the files (None: only on a terminal)
+    progress : progress bar in frame messages, with an ETA (None: on a terminal only)
     reference_options : more keyword arguments of ``read_reference`` (``fmt``, ``tz``,
         ``interval_s``, ``month``)
     series : already aggregated logs (then ``mcap_paths`` and ``reference_path`` are not read)
@@ -618,6 +709,8 @@ def calibrate(
             "the reference reports presence only (METAR), not amounts: use weatherd compare"
         )
     points = calibration_points(stats, threshold_mm=threshold_mm)
+    if points.r.size < 2:
+        raise InputError(_too_few(points, series, cam, stats, threshold_mm=threshold_mm))
     result, fits = fit_calibration(points, model=model, n_boot=n_boot, seed=seed)
     result["camera"] = cam
     result["station"] = series.station

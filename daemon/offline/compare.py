@@ -190,9 +190,13 @@ def score(
     verdicts = [reference_wet(s, threshold_mm=threshold_mm) for s in used]
     scored = [s for s, v in zip(used, verdicts, strict=True) if v is not None]
     if not scored:
+        reasons = series.unused_reasons(cam)
+        if len(used) > len(scored):
+            reasons.append(f"{len(used) - len(scored)} have no reference value (missing data)")
+        n_ref = series.counts.get("reference_intervals", len(series.for_camera(cam)))
         raise InputError(
-            f"camera {cam}: no interval to score (none has enough judged frames and a "
-            "reference value)"
+            f"camera {cam}: no interval to score: of {n_ref} reference interval(s), "
+            + "; ".join(reasons)
         )
     truth = np.array([v for v in verdicts if v is not None], dtype=bool)
     detected = np.array([s.rain_fraction >= camera_fraction for s in scored], dtype=bool)
@@ -260,7 +264,7 @@ def compare(
     camera_fraction : share of judged frames with ``rain`` at and above which the camera says wet
     min_judged, min_coverage : see :func:`daemon.offline.series.aggregate`
     plots_dir : write the PNG plots there; report : write the HTML report there
-    progress : progress bar over the files (None: only on a terminal)
+    progress : progress bar in frame messages, with an ETA (None: on a terminal only)
     reference_options : more keyword arguments of ``read_reference`` (``fmt``, ``tz``,
         ``interval_s``, ``month``)
     series : already aggregated logs (then ``mcap_paths`` and ``reference_path`` are not read)

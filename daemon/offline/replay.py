@@ -14,7 +14,6 @@ from __future__ import annotations
 import datetime as dt
 import logging
 import os
-import sys
 from collections import deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -32,6 +31,8 @@ from drivers.errors import InputError
 from drivers.video import Frame, open_video
 from hos import HosDetector
 from hos.params import DetectorParams
+
+from .progress import progress_bar
 
 __all__ = ["ReplaySummary", "parse_start", "replay"]
 
@@ -167,9 +168,7 @@ def _mtime_ns(path: str | os.PathLike[str]) -> int:
 
 
 def _progress(path: str | os.PathLike[str], video: object, *, enabled: bool):
-    if not (enabled and sys.stderr.isatty()):
-        return None
-    from tqdm import tqdm
-
+    """A bar in frames; its total (and so its ETA) is the reader's ``frame_count`` when the
+    container says how many frames it holds."""
     total = getattr(video, "frame_count", None)
-    return tqdm(total=total, desc=Path(path).name, unit="frame", leave=False)
+    return progress_bar(total, desc=Path(path).name, enabled=enabled)

@@ -36,6 +36,7 @@ from drivers.errors import InputError
 from .series import IntervalStats, Series, mean_histograms
 
 __all__ = [
+    "fitted_labels",
     "plot_calibration",
     "plot_hos",
     "plot_orientation",
@@ -174,22 +175,23 @@ def plot_calibration(
     ax = fig.subplots()
     chosen = fits[calibration["model"]]
     inlier = chosen.weights > 0
+    inlier_label, outlier_label = fitted_labels(chosen)
     ax.scatter(
         points.r[inlier],
         points.rate_mm_h[inlier],
         s=28,
         color="tab:blue",
-        label=f"wet intervals, fitted (n = {int(inlier.sum())})",
+        label=inlier_label,
         zorder=3,
     )
-    if (~inlier).any():
+    if outlier_label is not None:
         ax.scatter(
             points.r[~inlier],
             points.rate_mm_h[~inlier],
             s=50,
             marker="x",
             color="tab:red",
-            label=f"outliers, weight 0 (n = {int((~inlier).sum())})",
+            label=outlier_label,
             zorder=3,
         )
     fit_set = set(zip(points.r.tolist(), points.rate_mm_h.tolist(), strict=True))
@@ -206,9 +208,7 @@ def plot_calibration(
     r_hi = max(float(points.r_all.max()) if points.r_all.size else 0.0, float(points.r.max()))
     grid = np.linspace(0.0, r_hi * 1.05, 200)[1:]
     if chosen.boot_a.size:
-        ok = np.isfinite(chosen.boot_a) & np.isfinite(chosen.boot_b)
-        preds = chosen.boot_a[ok, None] * grid[None, :] ** chosen.boot_b[ok, None]
-        lo, hi = np.percentile(preds, [2.5, 97.5], axis=0)
+        lo, hi = chosen.band(grid)
         ax.fill_between(
             grid,
             lo,
@@ -251,6 +251,19 @@ def plot_calibration(
     ax.grid(alpha=0.3)
     ax.legend(loc="best", fontsize="small")
     return _png(fig)
+
+
+def fitted_labels(fit: Any) -> tuple[str, str | None]:
+    """Legend labels of the fitted intervals: those weighed in, and the outliers (None if
+    there are none). Both name the fit's ``n``, the number the subtitle and the JSON give:
+    an outlier is fitted too, with weight 0."""
+    n_out = int(np.count_nonzero(fit.weights == 0))
+    if n_out == 0:
+        return f"wet intervals, fitted (n = {fit.n})", None
+    return (
+        f"wet intervals, fitted (n = {fit.n}): {fit.n - n_out} weighed in",
+        f"… and {n_out} outlier(s), weight 0",
+    )
 
 
 def _equation(cal: dict[str, Any]) -> str:

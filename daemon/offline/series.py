@@ -30,7 +30,7 @@ import itertools
 import logging
 import math
 import os
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
@@ -42,6 +42,7 @@ from drivers.errors import InputError
 
 from .histograms import mean_histograms
 from .mcap_frames import find_mcap_files, iter_frames
+from .progress import progress_bar
 
 __all__ = [
     "GOF_GRID",
@@ -188,6 +189,7 @@ class Series:
         reference_intervals, intervals_no_frames, intervals_low_judged, intervals_low_coverage
     skipped_files : paths of the damaged files skipped
     reference : name of the reference file (or None), station (or None)
+    min_judged, min_coverage : the rules an interval passed to be used (see :func:`aggregate`)
     """
 
     intervals: list[IntervalStats]
@@ -197,10 +199,37 @@ class Series:
     skipped_files: list[str] = field(default_factory=list)
     reference: str | None = None
     station: str | None = None
+    min_judged: float = 0.5
+    min_coverage: float = 0.5
 
     def for_camera(self, camera: str) -> list[IntervalStats]:
         """The intervals of ``camera``, in time order."""
         return [s for s in self.intervals if s.camera == camera]
+
+    def unused_reasons(self, camera: str) -> list[str]:
+        """Why reference intervals are not used for ``camera``: one phrase per rule that left
+        some out, with the count and the option that changes the rule (empty if all are used).
+        """
+        stats = self.for_camera(camera)
+        n_ref = self.counts.get("reference_intervals", len(stats))
+        low_judged = sum(s.judged_fraction < self.min_judged for s in stats)
+        low_coverage = sum(
+            s.judged_fraction >= self.min_judged and s.coverage < self.min_coverage for s in stats
+        )
+        reasons = []
+        if n_ref > len(stats):
+            reasons.append(f"{n_ref - len(stats)} have no frame of camera {camera} in the logs")
+        if low_judged:
+            reasons.append(
+                f"{low_judged} have fewer than {self.min_judged:.0%} judged frames "
+                "(the camera could not judge: dark, unstable, warming up; --min-judged)"
+            )
+        if low_coverage:
+            reasons.append(
+                f"{low_coverage} are covered by frames for less than {self.min_coverage:.0%} of "
+                "their length (the log starts or ends inside them, or has gaps; --min-coverage)"
+            )
+        return reasons
 
     def select_camera(self, camera: str | None) -> str:
         """``camera`` if it was seen, or the only camera seen.
@@ -487,7 +516,8 @@ def load_series(
     station : station to keep from a multi-station file
     camera : only this camera (the ``--camera`` filter); None: all cameras
     min_judged, min_coverage : see :func:`aggregate`
-    progress : progress bar over the files (None: only on a terminal)
+    progress : progress bar in frame messages, with an ETA (None or True: on a terminal only;
+        False: none)
     reference_options : more keyword arguments of ``read_reference`` (``fmt``, ``tz``,
         ``interval_s``, ``month``)
 
@@ -497,7 +527,8 @@ def load_series(
     """
     for name, value in (("min_judged", min_judged), ("min_coverage", min_coverage)):
         if not 0.0 <= value <= 1.0:
-            raise InputError(f"{name} must be within [0, 1], got {value}")
+            option = "--" + name.replace("_", "-")
+            raise InputError(f"{option} ({name}) must be within [0, 1], got {value}")
     mcap_paths = list(mcap_paths)
     if not mcap_paths:
         raise InputError("no MCAP file given")
@@ -506,9 +537,14 @@ def load_series(
     counts: dict[str, int] = {}
     skipped: list[str] = []
     opened: list[Path] = []
-    frames = iter_frames(
-        mcap_paths, camera=camera, progress=progress, skipped=skipped, opened=opened
+    frames = iter_frames(mcap_paths, camera=camera, progress=False, skipped=skipped, opened=opened)
+    bar = progress_bar(
+        _frame_messages(find_mcap_files(mcap_paths), camera) if progress is not False else None,
+        desc="frames of the logs",
+        enabled=progress,
     )
+    if bar is not None:
+        frames = _counted(frames, bar)
     stats = aggregate(
         frames, intervals, min_judged=min_judged, min_coverage=min_coverage, counts=counts
     )
@@ -542,7 +578,52 @@ def load_series(
         skipped_files=skipped,
         reference=ref_name,
         station=station or (stations[0] if len(stations) == 1 else None),
+        min_judged=min_judged,
+        min_coverage=min_coverage,
     )
+
+
+def _frame_messages(files: Iterable[Path], camera: str | None) -> int | None:
+    """How many ``/hos/<cam>/frame`` messages the files hold, from their summaries (read
+    without reading a message); None when no summary says."""
+    import struct
+
+    from mcap.exceptions import McapError
+    from mcap.reader import make_reader
+
+    total = 0
+    for path in files:
+        try:
+            with open(path, "rb") as f:
+                summary = make_reader(f).get_summary()
+        except (McapError, struct.error, ValueError, EOFError, RuntimeError, OSError, KeyError):
+            # damaged: iter_frames skips it and says so
+            continue
+        if summary is None or summary.statistics is None:
+            continue
+        counts = summary.statistics.channel_message_counts
+        for channel_id, channel in summary.channels.items():
+            parts = channel.topic.split("/")
+            if parts[:2] == ["", "hos"] and parts[3:] == ["frame"] and len(parts) == 4:
+                if camera is None or parts[2] == camera:
+                    total += counts.get(channel_id, 0)
+    return total or None
+
+
+def _counted(frames: Iterable[dict[str, Any]], bar: Any) -> Iterator[dict[str, Any]]:
+    """``frames``, advancing ``bar`` by one each (in steps of 1024, tqdm's own cost being
+    noticeable at 100 000 frames a second), closing it at the end."""
+    n = 0
+    try:
+        for frame in frames:
+            yield frame
+            n += 1
+            if n == 1024:
+                bar.update(n)
+                n = 0
+        bar.update(n)
+    finally:
+        bar.close()
 
 
 def _ns(t: datetime) -> int:

@@ -15,9 +15,14 @@ The fusion rule, cameras first, then instruments (see :func:`fuse_site`):
   more often than it invents it (clear-weather false positives were 0 % in every tested case);
 - the camera alone cannot tell rain from snow: ``precipitation_type`` is ``"unknown"`` when
   precipitation is seen, null otherwise;
-- ``camera_R`` is the mean of R over the cameras that see precipitation, 0 when cameras judge
-  and none sees it, null when none can judge. R is relative (paper eq. 31); it becomes mm/h only
-  through a site calibration.
+- R (paper eq. 31, R = S·Π: the summed half-lengths of the streaks, px, times the share of
+  rain) comes in three averages, all in the same relative unit, which only a site calibration
+  turns into mm/h: ``R`` is the last frame's (per camera, in the state and in
+  ``weather.camera``); ``R_mean`` (``weather.camera``) the mean over the judged frames of the
+  summary window (1 s); ``R_smoothed`` (per camera, in the state) the exponentially weighted
+  mean over judged frames with a time constant of :data:`R_TAU_S`; ``camera_R`` is the mean of
+  ``R_smoothed`` over the cameras that see precipitation, 0 when cameras judge and none sees
+  it, null when none can judge — the value the calibration converts.
 """
 
 from __future__ import annotations
@@ -320,6 +325,24 @@ def _wawa_from(kind: str, intensity: str | None) -> int:
     return 42 if heavy else 41
 
 
+def _instrument_source(usable: dict[str, InstrumentView], votes: dict[str, Any]) -> str:
+    """``rain_rate_source`` of a 0 mm/h that only instruments judged (no camera could)."""
+    kinds = {usable[k].kind for k in votes}
+    return "sensor" if "present_weather" in kinds else "gauge"
+
+
+def _rate_reason(precipitation: bool | None, camera_rate: Callable | None) -> str:
+    """Why ``rain_rate_mm_h`` is null: unknown is not dry (dry is 0.0)."""
+    if precipitation is None:
+        return "no source can judge whether it rains"
+    if camera_rate is None:
+        return "no usable gauge or sensor gives a rate, and the camera has no calibration"
+    return (
+        "no usable gauge or sensor gives a rate, and the camera's calibration is not ready "
+        "(weatherd calibrate, or the online calibration still learning)"
+    )
+
+
 def fuse(
     cameras: dict[str, CameraView],
     *,
@@ -345,7 +368,9 @@ def fuse(
     3. **Type** from a usable present-weather sensor's WMO 4680 code; otherwise ``unknown``.
     4. **Rate** from a usable instrument (``rain_rate_source`` ``sensor`` or ``gauge``);
        otherwise from the camera's R through the site calibration (``camera``) when it is
-       ready; otherwise null. When precipitation is false the rate is 0.
+       ready; otherwise null, and ``rain_rate_reason`` says why. When precipitation is false
+       the rate is 0.0 whatever the calibration (a judged "dry" is a known rate; null always
+       means unknown), its source the one that judged.
     5. ``wawa`` and ``metar`` from the sensor when it gives them, else derived from the type
        and the intensity class (e.g. 41 / ``-UP`` for camera-only light precipitation).
     6. ``visibility_m`` from a usable present-weather sensor.
@@ -417,8 +442,9 @@ def fuse(
             rate = 0.0
         if rate is not None:
             source = "camera"
-    if precipitation is False and rate is not None:
+    if precipitation is False:  # a judged "no precipitation" is a known rate: 0 mm/h
         rate = 0.0
+        source = source or ("camera" if cam_votes else _instrument_source(usable, inst_votes))
     intensity = intensity_class(rate) if precipitation else None
     if precipitation and wawa is None:
         wawa = _wawa_from(kind or "unknown", intensity)
@@ -441,6 +467,7 @@ def fuse(
         precipitation_type=kind,
         rain_rate_mm_h=None if rate is None else round(rate, 4),
         rain_rate_source=source if rate is not None else None,
+        rain_rate_reason=None if rate is not None else _rate_reason(precipitation, camera_rate),
         intensity_class=intensity,
         wawa=wawa,
         metar=metar or None,
@@ -454,6 +481,7 @@ def fuse(
                 "mu_deg": v.mu_deg,
                 "sigma_deg": v.sigma_deg,
                 "R": v.R,
+                "R_smoothed": None if v.r_mean is None else round(v.r_mean, 6),
                 "fps": None if v.fps is None else round(v.fps, 3),
                 "rain_fraction": v.rain_fraction,
             }

@@ -19,8 +19,8 @@ that ``from drivers.simulator import Scene`` is all a test or a benchmark needs.
 * :mod:`.street` -- the painting of the street and of what crosses it (private helpers);
 * :mod:`.scene` -- :class:`SceneParams`, :class:`Scene`: the street; ``Scene.frame(i)`` is a
   pure function of the seed and ``i``, so any frame can be rendered again, alone, in any order;
-* :mod:`.demo` -- :func:`demo_frames`: the endless clear -> rain -> clear -> snow sequence of
-  the demo camera;
+* :mod:`.demo` -- :func:`demo_params`: the demo street; :func:`demo_frames`: the endless
+  clear -> rain -> clear -> snow sequence of the demo camera;
 * :mod:`.video_writer` -- :func:`write_video`: frames to a video file with PyAV.
 
 Orientation convention (project contract): image coordinates, x to the right, y downward,
@@ -32,7 +32,7 @@ theta measured from the x axis toward the y axis, in [0, pi). 90 degrees is a ve
 from __future__ import annotations
 
 from .demo import _demo_schedule as _demo_schedule
-from .demo import demo_frames
+from .demo import demo_frames, demo_params
 from .precipitation import (
     VISIBLE_C,
     SnowParams,
@@ -56,6 +56,7 @@ __all__ = [
     "StreakParams",
     "composite",
     "demo_frames",
+    "demo_params",
     "render_snow",
     "render_streaks",
     "write_video",

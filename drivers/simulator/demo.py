@@ -8,9 +8,9 @@ from collections.abc import Iterator
 import numpy as np
 
 from .precipitation import SnowParams, StreakParams
-from .scene import FrameTruth, Scene, SceneParams
+from .scene import FrameTruth, Scene, SceneParams, Schedule
 
-__all__ = ["demo_frames"]
+__all__ = ["demo_frames", "demo_params"]
 
 #: The demo's cycle, seconds: clear, rain, clear, then snow (even cycles) or heavy rain (odd).
 _DEMO_PHASES_S = (20.0, 40.0, 20.0, 40.0)
@@ -34,21 +34,22 @@ def _demo_schedule(i: int, *, fps: float) -> tuple[float, float]:
     return (0.0, k) if int(cycle) % 2 == 0 else (1.8 * k, 0.0)
 
 
-def demo_frames(
-    width: int = 640, height: int = 360, fps: float = 25, *, seed: int = 0
-) -> Iterator[tuple[np.ndarray, FrameTruth]]:
-    """Endless (gray, truth) frames for the daemon's demo camera.
+def demo_params(
+    width: int = 640, height: int = 360, fps: float = 25, *, schedule: Schedule | None = None
+) -> SceneParams:
+    """The demo street's :class:`SceneParams` for this frame size: cars, pedestrians, light
+    wind in the tree, a little sensor noise, and moderate rain or snow at multiplier 1.
 
-    A street with cars, pedestrians, light wind in the tree and a little sensor noise; the
-    weather cycles every two minutes: clear (20 s), moderate rain (40 s), clear (20 s), then
-    snow (40 s) on even cycles and heavy rain on odd ones. Counts and lengths scale with the
-    frame size so that the rain looks the same at any resolution.
+    ``schedule`` (see :class:`SceneParams`) says when it rains or snows; None: the demo's
+    cycle. Counts and lengths scale with the frame size so that the rain looks the same at any
+    resolution.
     """
     area = width * height / (640 * 360)
     rain = StreakParams(count=max(1, round(300 * area)), length_px=max(3.0, 11.0 * height / 540))
     snow = SnowParams(count=max(1, round(220 * area)))
-    schedule = functools.partial(_demo_schedule, fps=fps)
-    params = SceneParams(
+    if schedule is None:
+        schedule = functools.partial(_demo_schedule, fps=fps)
+    return SceneParams(
         fps=fps,
         cars=3,
         pedestrians=3,
@@ -58,4 +59,16 @@ def demo_frames(
         snow=snow,
         schedule=schedule,
     )
+
+
+def demo_frames(
+    width: int = 640, height: int = 360, fps: float = 25, *, seed: int = 0
+) -> Iterator[tuple[np.ndarray, FrameTruth]]:
+    """Endless (gray, truth) frames for the daemon's demo camera.
+
+    The street of :func:`demo_params`; the weather cycles every two minutes: clear (20 s),
+    moderate rain (40 s), clear (20 s), then snow (40 s) on even cycles and heavy rain on odd
+    ones.
+    """
+    params = demo_params(width, height, fps)
     yield from Scene(width, height, seed=seed, params=params).frames()
