@@ -583,6 +583,7 @@ class VideoWriter:
         self._size = (self.width + self.width % 2, self.height + self.height % 2)
         self.frames_written = 0
         codec = _encoder()
+        created = not self.path.exists()
         try:
             self.path.open("wb").close()  # FFmpeg would only fail at the first frame
         except OSError as exc:
@@ -590,7 +591,8 @@ class VideoWriter:
         try:
             self._container = av.open(str(self.path), mode="w")
         except (av.FFmpegError, OSError, ValueError) as exc:
-            self.path.unlink(missing_ok=True)
+            if created and self.path.is_file():  # never a device or a file that was there
+                self.path.unlink(missing_ok=True)
             raise WeatherdError(f"{self.path}: cannot write a video ({_reason(exc)})") from None
         try:
             rate = Fraction(fps).limit_denominator(1001)

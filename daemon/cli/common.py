@@ -19,6 +19,7 @@ if TYPE_CHECKING:
 __all__ = [
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
+    "EXIT_IO",
     "EXIT_OK",
     "EXIT_USAGE",
     "ArgumentParser",
@@ -29,6 +30,8 @@ __all__ = [
 ]
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+#: An output or device failed (disk full, I/O error...): sysexits' EX_IOERR.
+EXIT_IO = 74
 
 
 def as_json(value: object) -> object:

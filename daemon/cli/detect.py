@@ -91,21 +91,48 @@ def _json_line(result: FrameResult) -> str:
     return json.dumps(result.to_json(), separators=(",", ":"), allow_nan=False) + "\n"
 
 
+class _Lines:
+    """A text output whose write errors name it: a full disk is ``PATH: no space left on
+    device`` (an ``OSError`` with the file name, exit status 74), not an internal error."""
+
+    def __init__(self, stream: TextIO, name: str):
+        self._stream, self.name = stream, name
+
+    def write(self, text: str) -> None:
+        with _naming(self.name):
+            self._stream.write(text)
+
+    def flush(self) -> None:
+        with _naming(self.name):
+            self._stream.flush()
+
+
 @contextlib.contextmanager
-def _jsonl_output(target: str) -> Iterator[TextIO]:
+def _naming(name: str) -> Iterator[None]:
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None or exc.errno is None:
+            raise
+        raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), name) from None
+
+
+@contextlib.contextmanager
+def _jsonl_output(target: str) -> Iterator[_Lines]:
     """The JSONL stream: ``-`` is stdout, anything else a file (overwritten)."""
     if target == "-":
+        lines = _Lines(sys.stdout, "standard output")
         try:
-            yield sys.stdout
+            yield lines
         finally:
-            sys.stdout.flush()
+            lines.flush()
         return
     try:
         stream = open(target, "w", encoding="utf-8")
     except OSError as exc:
         raise WeatherdError(f"{target}: cannot write ({exc.strerror or exc})") from None
-    with stream:
-        yield stream
+    with _naming(target), stream:
+        yield _Lines(stream, target)
 
 
 def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.ndarray:
