@@ -424,7 +424,8 @@ def parse_config(data: dict[str, Any]) -> Config:
         config = Config.model_validate(data)
     except pydantic.ValidationError as exc:
         errors += _errors(exc)
-    errors += _detector_errors(data)
+    reported = {e.partition(": ")[0] for e in errors}  # pydantic may have named a key already
+    errors += [e for e in _detector_errors(data) if e.partition(": ")[0] not in reported]
     if errors or config is None:
         raise config_error(errors)
     return config

@@ -14,6 +14,7 @@ lower-resolution camera, which is what the paper's parameters are meant for (640
 
 from __future__ import annotations
 
+import logging
 import math
 
 import cv2
@@ -24,10 +25,13 @@ __all__ = [
     "MAX_FRAME_PIXELS",
     "MAX_PIXELS_LIMIT",
     "MIN_FRAME_PIXELS",
+    "Shrinker",
     "downscale",
     "downscale_factor",
     "frame_memory_mb",
 ]
+
+log = logging.getLogger(__name__)
 
 #: Default limit: 1920 x 1080 pixels.
 MAX_FRAME_PIXELS = 1920 * 1080
@@ -36,7 +40,7 @@ MAX_PIXELS_LIMIT = 3840 * 2160
 #: The smallest: 64 x 64.
 MIN_FRAME_PIXELS = 64 * 64
 #: Memory the detector needs per pixel of frame, bytes (measured, docs/daemon.md "Limits").
-DETECTOR_BYTES_PER_PIXEL = 64
+DETECTOR_BYTES_PER_PIXEL = 90
 
 
 def frame_memory_mb(pixels: int) -> float:
@@ -64,3 +68,32 @@ def downscale(gray: np.ndarray, factor: int) -> np.ndarray:
     h, w = gray.shape[0] // factor, gray.shape[1] // factor
     block = gray[: h * factor, : w * factor]
     return cv2.resize(block, (w, h), interpolation=cv2.INTER_AREA)
+
+
+class Shrinker:
+    """The integer factor that brings the frames of one source within ``max_pixels`` (None: no
+    limit), and the frames so brought; the first shrink is said once in the log."""
+
+    def __init__(self, name: str, max_pixels: int | None):
+        self._name, self._max_pixels = name, max_pixels
+        self._said = False
+
+    def factor(self, width: int, height: int) -> int:
+        k = downscale_factor(width, height, max_pixels=self._max_pixels)
+        if k > 1 and not self._said:
+            self._said = True
+            log.warning(
+                "%s: %dx%d frames shrunk by %d to %dx%d (more than %d pixels; see max_pixels)",
+                self._name,
+                width,
+                height,
+                k,
+                width // k,
+                height // k,
+                self._max_pixels,
+            )
+        return k
+
+    def __call__(self, gray: np.ndarray) -> np.ndarray:
+        """``gray`` (H, W) brought within the limit."""
+        return downscale(gray, self.factor(gray.shape[1], gray.shape[0]))

@@ -17,16 +17,23 @@ spec                   source                                                   
 
 Each source module imports only :mod:`drivers.frames` (the protocol), never this one, and is
 imported here when its scheme is opened: a spec costs only the imports of its own source.
+
+With ``max_pixels``, no source gives frames of more pixels (:mod:`drivers.frame_size`): a
+requested size beyond it is refused, a file is shrunk as it is decoded, and a camera or stream
+of a larger native size has each frame shrunk by an integer factor as it is read.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 from urllib.parse import parse_qsl
 
 from .errors import ConfigError
-from .frames import DEFAULT_TIMEOUT_S, FrameSource, mask_credentials
+from .frame_size import Shrinker, frame_memory_mb
+from .frames import DEFAULT_TIMEOUT_S, FrameSource, LiveFrame, mask_credentials
 
 __all__ = ["SCHEMES", "open_source"]
 
@@ -44,6 +51,7 @@ def open_source(
     realtime: bool = True,
     timeout_s: float = DEFAULT_TIMEOUT_S,
     options: Mapping[str, str] | None = None,
+    max_pixels: int | None = None,
 ) -> FrameSource:
     """Make the frame source a spec names, not yet opened (no I/O happens here).
 
@@ -61,10 +69,12 @@ def open_source(
         before the source counts as failed
     options : FFmpeg options for streams and cameras, over the defaults
         (e.g. ``{"rtsp_transport": "udp"}``)
+    max_pixels : the most pixels a frame may have (None: no limit); see the module doc
 
     Raises
     ------
-    ConfigError : unknown scheme or malformed spec, naming the spec (without credentials).
+    ConfigError : unknown scheme or malformed spec, or a requested size of more than
+        ``max_pixels``, naming the spec (without credentials).
     """
     name = mask_credentials(spec)
     lower = spec.lower()
@@ -77,6 +87,12 @@ def open_source(
     for key, value in (("width", width), ("height", height), ("fps", fps), ("timeout", timeout_s)):
         if value is not None and not value > 0:
             raise ConfigError(f"{name}: {key} must be > 0, got {value}")
+    if max_pixels is not None and width is not None and height is not None:
+        if width * height > max_pixels:
+            raise ConfigError(
+                f"{name}: {width}x{height} is more than {max_pixels} pixels (about "
+                f"{frame_memory_mb(width * height):.0f} MB for the detector): ask for less"
+            )
     rest = spec[len(scheme) :]
     if scheme == "demo:":
         from .demo import DemoSource
@@ -101,6 +117,7 @@ def open_source(
             fps=fps,
             loop=loop,
             realtime=realtime,
+            max_pixels=max_pixels,
         )
     if scheme == "v4l2:":
         from .v4l2 import v4l2_source
@@ -110,16 +127,44 @@ def open_source(
             raise ConfigError(f"{name}: no device after 'v4l2:' (e.g. v4l2:/dev/video0)")
         extra = dict(parse_qsl(query, keep_blank_values=True))
         extra.update(options or {})
-        return v4l2_source(
+        source = v4l2_source(
             device, width=width, height=height, fps=fps, timeout_s=timeout_s, options=extra
         )
+        return _Limited(source, max_pixels) if max_pixels is not None else source
     from .stream import stream_source
 
     if len(rest.split("/", 1)[0].rsplit("@", 1)[-1]) == 0:
         raise ConfigError(f"{name}: no host in the URL")
-    return stream_source(
+    source = stream_source(
         spec, width=width, height=height, timeout_s=timeout_s, options=dict(options or {})
     )
+    return _Limited(source, max_pixels) if max_pixels is not None else source
+
+
+class _Limited:
+    """A camera or stream whose frames are shrunk to at most ``max_pixels`` as they are read
+    (by the capture thread, before the frame is handed on)."""
+
+    def __init__(self, source: FrameSource, max_pixels: int):
+        self._source = source
+        self.name = source.name
+        self._shrink = Shrinker(source.name, max_pixels)
+
+    def open(self) -> None:
+        self._source.open()
+
+    def read(self) -> LiveFrame | None:
+        frame = self._source.read()
+        if frame is None:
+            return None
+        gray = self._shrink(frame.gray)
+        return frame if gray is frame.gray else dataclasses.replace(frame, gray=gray)
+
+    def close(self) -> None:
+        self._source.close()
+
+    def __getattr__(self, attribute: str) -> Any:  # the source's own attributes (stats...)
+        return getattr(self._source, attribute)
 
 
 def _demo_query(name: str, query: str) -> dict[str, int]:

@@ -16,6 +16,12 @@ import numpy as np
 
 from daemon.service.detection import detect_frames
 from drivers.errors import WeatherdError
+from drivers.frame_size import (
+    DETECTOR_BYTES_PER_PIXEL,
+    MAX_FRAME_PIXELS,
+    MAX_PIXELS_LIMIT,
+    MIN_FRAME_PIXELS,
+)
 from drivers.video import Frame, VideoWriter, open_video, read_roi_mask, roi_for_size
 from hos.overlay import draw_overlay
 from hos.pipeline import HosDetector
@@ -32,7 +38,7 @@ def _detect(args: argparse.Namespace) -> int:
     frames = rain_frames = skipped = 0
     interrupted = False
     with contextlib.ExitStack() as stack:  # closed in reverse: overlay, JSONL, video
-        video = stack.enter_context(open_video(args.video))
+        video = stack.enter_context(open_video(args.video, max_pixels=args.max_pixels))
         roi = read_roi(args.roi, width=video.width, height=video.height) if args.roi else None
         detector = HosDetector(params, roi=roi)
         jsonl = stack.enter_context(_jsonl_output(args.jsonl)) if args.jsonl else None
@@ -147,6 +153,18 @@ def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.nda
     return roi_for_size(read_roi_mask(path), width=width, height=height)
 
 
+def _max_pixels(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of pixels, got {text!r}") from None
+    if not MIN_FRAME_PIXELS <= value <= MAX_PIXELS_LIMIT:
+        raise argparse.ArgumentTypeError(
+            f"must be {MIN_FRAME_PIXELS} to {MAX_PIXELS_LIMIT} pixels, got {value}"
+        )
+    return value
+
+
 def register(commands: argparse._SubParsersAction, parents: list[argparse.ArgumentParser]) -> None:
     """Add ``weatherd detect`` to ``commands``."""
     detect = commands.add_parser(
@@ -162,5 +180,14 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
     detect.add_argument("--overlay", metavar="OUT", help="write the overlay video (.mp4...)")
     detect.add_argument("--config", metavar="PATH", help="TOML file; its [detector] table")
     detect.add_argument("--roi", metavar="MASK", help="mask image, nonzero = analysed")
+    detect.add_argument(
+        "--max-pixels",
+        metavar="N",
+        type=_max_pixels,
+        default=MAX_FRAME_PIXELS,
+        help="frames with more pixels are shrunk by an integer factor before detection "
+        f"(default {MAX_FRAME_PIXELS} = 1920x1080; at most {MAX_PIXELS_LIMIT}; "
+        f"the detector needs about {DETECTOR_BYTES_PER_PIXEL} bytes a pixel)",
+    )
     detect.add_argument("--quiet", action="store_true", help="no summary line on stderr")
     detect.set_defaults(handler=_detect)

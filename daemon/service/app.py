@@ -252,6 +252,7 @@ def _open_camera(camera: CameraConfig) -> FrameSource:
         fps=camera.fps,
         loop=camera.loop,
         realtime=camera.realtime,
+        max_pixels=camera.max_pixels,
     )
 
 
