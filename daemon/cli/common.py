@@ -8,9 +8,12 @@ import dataclasses
 import os
 import signal
 import sys
+import tempfile
 import threading
+from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from drivers.errors import ConfigError
 from hos.params import DetectorParams
 
 if TYPE_CHECKING:
@@ -27,6 +30,7 @@ __all__ = [
     "as_json",
     "config_params",
     "print_error",
+    "validated_config",
 ]
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
@@ -74,6 +78,58 @@ def config_params(path: str | None) -> tuple[Config | None, DetectorParams]:
 
     config = load_config(path)
     return config, detector_params({"detector": config.detector})
+
+
+def validated_config(path: str | None) -> Config:
+    """The configuration ``run`` will use (None: the defaults, the demo camera), checked as
+    ``run`` checks it before it starts anything: what ``check-config`` accepts, ``run`` starts
+    with, and what one refuses the other refuses with the same lines.
+
+    Raises
+    ------
+    ConfigError : every problem found (:class:`~daemon.config.ConfigErrors` for several), each
+        starting with the file name.
+    """
+    from daemon.config import (
+        config_error,
+        default_recording_dir,
+        error_lines,
+        load_config,
+        parse_config,
+    )
+    from daemon.service.app import check_paths
+
+    config = load_config(path) if path is not None else parse_config({})
+    errors: list[str] = []
+    try:
+        check_paths(config)
+    except ConfigError as exc:
+        errors += error_lines(exc)
+    if config.recording.enabled:
+        problem = _unwritable_dir(default_recording_dir(config.recording))
+        if problem:
+            errors.append(f"recording.dir: {problem}")
+    if errors:
+        prefix = f"{path}: " if path is not None else ""
+        raise config_error([prefix + e for e in errors])
+    return config
+
+
+def _unwritable_dir(directory: Path) -> str | None:
+    """Why ``directory`` cannot be created or written by this user, or None if it can: a
+    directory is made and removed at once where it would go (``os.access`` says yes to root
+    on a read-only or virtual file system)."""
+    target = directory.absolute()
+    while not target.is_dir():
+        if target.exists() or target.is_symlink() or target.parent == target:
+            return f"cannot create {directory} ({target} is not a directory)"
+        target = target.parent
+    verb = "write in" if target == directory.absolute() else "create"
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".weatherd-check-", dir=target))
+    except OSError as exc:
+        return f"cannot {verb} {directory} ({exc.strerror or exc})"
+    return None
 
 
 class ArgumentParser(argparse.ArgumentParser):
