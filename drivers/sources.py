@@ -26,19 +26,24 @@ of a larger native size has each frame shrunk by an integer factor as it is read
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 from urllib.parse import parse_qsl
 
-from .errors import ConfigError
+from .errors import ConfigError, InputError
 from .frame_size import Shrinker, frame_memory_mb
 from .frames import DEFAULT_TIMEOUT_S, FrameSource, LiveFrame, mask_credentials
 
-__all__ = ["SCHEMES", "open_source"]
+if TYPE_CHECKING:
+    from .video import Frame, VideoReader
+
+__all__ = ["OFFLINE_SCHEMES", "SCHEMES", "SourceReader", "open_frames", "open_source"]
 
 #: The spec prefixes :func:`open_source` knows (compared case-insensitively).
 SCHEMES = ("v4l2:", "file:", "demo:", "rtsp://", "rtsps://", "http://", "https://")
+#: Those :func:`open_frames` reads offline (as fast as they decode); a bare path is a file.
+OFFLINE_SCHEMES = ("file:", "demo:")
 
 
 def open_source(
@@ -139,6 +144,89 @@ def open_source(
         spec, width=width, height=height, timeout_s=timeout_s, options=dict(options or {})
     )
     return _Limited(source, max_pixels) if max_pixels is not None else source
+
+
+def open_frames(spec: str, *, max_pixels: int | None = None) -> VideoReader | SourceReader:
+    """Frames of a file, an image folder or the demo street, read offline (``weatherd detect``).
+
+    Parameters
+    ----------
+    spec : a path, ``file:PATH`` or ``demo:`` (``demo:?seed=3``); the demo never ends, so its
+        reader must be stopped by the caller
+    max_pixels : see :func:`open_source`
+
+    Returns
+    -------
+    An iterator of :class:`~drivers.video.Frame` with ``width``, ``height``, ``fps``,
+    ``frames_skipped``, ``frame_count`` and ``close()``: a :class:`~drivers.video.VideoReader`
+    for files, a :class:`SourceReader` for the demo.
+
+    Raises
+    ------
+    InputError : the file cannot be read, or the spec names a live camera or stream.
+    ConfigError : a malformed ``demo:`` spec.
+    """
+    from .video import open_video
+
+    lower = spec.lower()
+    scheme = next((s for s in SCHEMES if lower.startswith(s)), None)
+    if scheme is None:
+        return open_video(spec, max_pixels=max_pixels)
+    if scheme not in OFFLINE_SCHEMES:
+        raise InputError(
+            f"{mask_credentials(spec)}: a live camera or stream; this reads files, image "
+            "folders, file:PATH and demo: (weatherd run watches live sources)"
+        )
+    source = open_source(spec, realtime=False, max_pixels=max_pixels)
+    if scheme == "file:":
+        return open_video(source.path, max_pixels=max_pixels)  # type: ignore[attr-defined]
+    return SourceReader(source)
+
+
+class SourceReader:
+    """A frame source read as :func:`drivers.video.open_video`'s reader is (an iterator of
+    ``Frame``, its size that of the first frame); opened here, closed by :meth:`close`.
+
+    Raises
+    ------
+    InputError : the source gives no frame at all.
+    """
+
+    def __init__(self, source: FrameSource):
+        from .video import Frame
+
+        self._frame = Frame
+        self._source = source
+        self.name = source.name
+        self.fps = float(getattr(source, "fps", 25.0))
+        self.frame_count: int | None = None
+        source.open()
+        first = source.read()
+        if first is None:
+            source.close()
+            raise InputError(f"{self.name}: no frame")
+        self._first: LiveFrame | None = first
+        self.height, self.width = first.gray.shape
+
+    @property
+    def frames_skipped(self) -> int:
+        return int(getattr(self._source, "frames_skipped", 0))
+
+    def __iter__(self) -> Iterator[Frame]:
+        while True:
+            frame, self._first = self._first or self._source.read(), None
+            if frame is None:
+                return
+            yield self._frame(frame.index, frame.t_s, frame.gray)
+
+    def close(self) -> None:
+        self._source.close()
+
+    def __enter__(self) -> SourceReader:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
 
 
 class _Limited:
