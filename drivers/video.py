@@ -389,6 +389,8 @@ class _AvFile:
             if not streams:
                 raise InputError(f"{path}: has no video stream")
             self._stream = streams[0]
+            if self._stream.codec_context is None:  # a codec this FFmpeg does not know
+                raise InputError(f"{path}: no decoder for its video stream")
             codec = self._stream.codec_context.name
             if codec in _TEXT_ART_CODECS:
                 raise InputError(
