@@ -42,7 +42,7 @@ def _detect(args: argparse.Namespace) -> int:
     interrupted = False
     if args.video.lower().startswith("demo:") and args.frames is None and args.seconds is None:
         raise InputError(
-            f"{args.video}: the demo street never ends: give --frames N or --seconds S"
+            f"the demo street ({args.video}) never ends: give --frames N or --seconds S"
         )
     with contextlib.ExitStack() as stack:  # closed in reverse: overlay, JSONL, video
         video = stack.enter_context(open_frames(args.video, max_pixels=args.max_pixels))
