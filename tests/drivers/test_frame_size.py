@@ -117,3 +117,28 @@ def test_detect_memory_does_not_grow_with_frame_size(tmp_path: Path) -> None:
     uhd = _detect_maxrss_mb(write_flat_clip(tmp_path / "uhd.avi", 3840, 2160))
     extra_pixels = 3840 * 2160 - 1920 * 1080
     assert uhd - hd < extra_pixels * 30 / 1e6, (hd, uhd)
+
+
+def test_a_camera_of_a_larger_native_size_is_shrunk_as_it_is_read() -> None:
+    from drivers.frames import MemorySource
+    from drivers.sources import _Limited
+
+    big = np.full((1440, 2560), 100, np.uint8)
+    small = np.full((360, 640), 50, np.uint8)
+    source = _Limited(MemorySource([big, small, None]), MAX_FRAME_PIXELS)
+    source.open()
+    first, second = source.read(), source.read()
+    assert first.gray.shape == (720, 1280) and int(first.gray[0, 0]) == 100
+    assert second.gray is not None and second.gray.shape == (360, 640)
+    assert source.read() is None
+    source.close()
+
+
+def test_a_file_source_is_shrunk_by_the_daemon_limit(tmp_path: Path) -> None:
+    clip = write_flat_clip(tmp_path / "big.avi", 2560, 1440, frames=2)
+    source = open_source(f"file:{clip}", realtime=False, max_pixels=MAX_FRAME_PIXELS)
+    source.open()
+    try:
+        assert source.read().gray.shape == (720, 1280)
+    finally:
+        source.close()

@@ -101,10 +101,20 @@ def test_recording_dir_defaults_to_the_state_directory(monkeypatch: pytest.Monke
 
 
 # -- issue 11: what run would trip on is refused here, every problem at once --------------
-@pytest.mark.parametrize("depth", [65, 900, 5000])
-def test_deep_nesting_is_a_config_error(tmp_path: Path, depth: int) -> None:
+@pytest.mark.parametrize(
+    "text",
+    [
+        "a = " + "[" * 65 + "]" * 65,
+        "a = " + "[" * 900 + "]" * 900,
+        "a = " + "[" * 5000 + "]" * 5000,
+        "a = " + "{b = " * 70 + "1" + "}" * 70,
+        "a" + ".b" * 70 + " = 1",
+    ],
+    ids=["arrays-65", "arrays-900", "arrays-5000", "inline-tables-70", "dotted-keys-70"],
+)
+def test_deep_nesting_is_a_config_error(tmp_path: Path, text: str) -> None:
     deep = tmp_path / "deep.toml"
-    deep.write_text("a = " + "[" * depth + "]" * depth + "\n")
+    deep.write_text(text + "\n")
     with pytest.raises(ConfigError, match=r"deep\.toml: .*nested"):
         load_config(deep)
 
