@@ -105,6 +105,8 @@ def validated_config(path: str | None) -> Config:
         check_paths(config)
     except ConfigError as exc:
         errors += error_lines(exc)
+    if config.zenoh.enabled and config.zenoh.config_file and not errors:
+        errors += _zenoh_file_errors(config)
     if config.recording.enabled:
         problem = _unwritable_dir(default_recording_dir(config.recording))
         if problem:
@@ -113,6 +115,31 @@ def validated_config(path: str | None) -> Config:
         prefix = f"{path}: " if path is not None else ""
         raise config_error([prefix + e for e in errors])
     return config
+
+
+def _zenoh_file_errors(config: Config) -> list[str]:
+    """The endpoints a Zenoh config file brings, checked as ``[zenoh]``'s own are (Zenoh would
+    only refuse a bad one when the session opens, and the daemon would retry for ever)."""
+    import json
+
+    from daemon.config import check_endpoint
+    from daemon.transport.publisher import zenoh_config
+
+    zc = config.zenoh
+    conf = zenoh_config(
+        mode=zc.mode, connect=zc.connect, listen=zc.listen, config_file=zc.config_file
+    )
+    errors = []
+    for kind in ("connect", "listen"):
+        endpoints = json.loads(conf.get_json(f"{kind}/endpoints") or "[]")
+        if isinstance(endpoints, dict):  # per mode: {"router": [...], "peer": [...]}
+            endpoints = [e for mode in endpoints.values() for e in mode or ()]
+        for endpoint in endpoints:
+            try:
+                check_endpoint(str(endpoint), listen=kind == "listen")
+            except ValueError as exc:
+                errors.append(f"zenoh.config_file: {zc.config_file}: {kind}/endpoints: {exc}")
+    return errors
 
 
 def _unwritable_dir(directory: Path) -> str | None:

@@ -56,6 +56,14 @@ REFUSED = [
         ],
     ),
     (
+        "zenoh-file",
+        '[zenoh]\nconfig_file = "{zfile}"\n',
+        [
+            "zenoh.config_file: {zfile}: connect/endpoints: 'tcp/x': expected HOST:PORT",
+            "zenoh.config_file: {zfile}: listen/endpoints: 'tcp/127.0.0.1:99999': port must",
+        ],
+    ),
+    (
         "huge-camera",
         NO_ZENOH + '[[camera]]\nid = "c"\nsource = "demo:"\nwidth = 8192\nheight = 8192\n',
         ["camera[0]: width x height = 8192x8192 = 67108864 pixels, more than max_pixels"],
@@ -67,6 +75,9 @@ REFUSED = [
         ["roi: /no/mask.png", "calibration.file: ", "recording.dir: cannot create"],
     ),
 ]
+
+#: A Zenoh configuration file whose endpoints Zenoh would refuse only when the session opens.
+ZENOH_FILE = '{ listen: { endpoints: ["tcp/127.0.0.1:99999"] }, connect: { endpoints: ["tcp/x"] } }'
 
 #: Accepted at the edges of every bound at once, Zenoh listening: run must start with it.
 ACCEPTED = (
@@ -100,8 +111,11 @@ def start_run(path: Path, log: Path) -> subprocess.Popen:
 def test_refused_by_both_with_the_same_lines(
     capsys: pytest.CaptureFixture[str], tmp_path: Path, name: str, text: str, named: list[str]
 ) -> None:
+    zfile = tmp_path / "zenoh.json5"
+    zfile.write_text(ZENOH_FILE)
     path = tmp_path / f"{name}.toml"
-    path.write_text(text.replace("{file}", str(REPO / "README.md")))
+    path.write_text(text.replace("{file}", str(REPO / "README.md")).replace("{zfile}", str(zfile)))
+    named = [what.replace("{zfile}", str(zfile)) for what in named]
     status, lines = check_config(capsys, path)
     assert status == 2, lines
     assert len(lines) == len(named), lines
