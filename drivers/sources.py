@@ -193,18 +193,18 @@ class SourceReader:
     """
 
     def __init__(self, source: FrameSource):
-        from .video import Frame
-
-        self._frame = Frame
         self._source = source
         self.name = source.name
         self.fps = float(getattr(source, "fps", 25.0))
         self.frame_count: int | None = None
-        source.open()
-        first = source.read()
-        if first is None:
+        try:
+            source.open()
+            first = source.read()
+            if first is None:
+                raise InputError(f"{self.name}: no frame")
+        except BaseException:
             source.close()
-            raise InputError(f"{self.name}: no frame")
+            raise
         self._first: LiveFrame | None = first
         self.height, self.width = first.gray.shape
 
@@ -213,11 +213,13 @@ class SourceReader:
         return int(getattr(self._source, "frames_skipped", 0))
 
     def __iter__(self) -> Iterator[Frame]:
+        from .video import Frame  # here: the live sources do not need PyAV
+
         while True:
             frame, self._first = self._first or self._source.read(), None
             if frame is None:
                 return
-            yield self._frame(frame.index, frame.t_s, frame.gray)
+            yield Frame(frame.index, frame.t_s, frame.gray)
 
     def close(self) -> None:
         self._source.close()
