@@ -80,9 +80,19 @@ class ConfigErrors(ConfigError):
         super().__init__("; ".join(self.errors))
 
 
+#: A file with more problems than this is not worth reading line by line.
+_MAX_ERRORS = 20
+
+
 def config_error(errors: typing.Sequence[str]) -> ConfigError:
-    """One :class:`ConfigError` for one problem, :class:`ConfigErrors` for several."""
-    return ConfigError(errors[0]) if len(errors) == 1 else ConfigErrors(errors)
+    """One :class:`ConfigError` for one problem, :class:`ConfigErrors` for several (at most
+    ``_MAX_ERRORS`` lines, the last saying how many more there are)."""
+    if len(errors) == 1:
+        return ConfigError(errors[0])
+    if len(errors) > _MAX_ERRORS:
+        more = len(errors) - (_MAX_ERRORS - 1)
+        errors = [*errors[: _MAX_ERRORS - 1], f"... and {more} more problems"]
+    return ConfigErrors(errors)
 
 
 def error_lines(exc: ConfigError) -> tuple[str, ...]:
@@ -93,7 +103,7 @@ def error_lines(exc: ConfigError) -> tuple[str, ...]:
 class _Strict(BaseModel):
     # inf and nan are refused everywhere: no interval, rate or size of ours means anything
     # infinite (and int(inf) would fail only once the daemon runs).
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
 def _check_id(value: str) -> str:

@@ -96,6 +96,7 @@ def validated_config(path: str | None) -> Config:
         error_lines,
         load_config,
         parse_config,
+        state_dir,
     )
     from daemon.service.app import check_paths
 
@@ -107,10 +108,14 @@ def validated_config(path: str | None) -> Config:
         errors += error_lines(exc)
     if config.zenoh.enabled and config.zenoh.config_file and not errors:
         errors += _zenoh_file_errors(config)
-    if config.recording.enabled:
-        problem = _unwritable_dir(default_recording_dir(config.recording))
+    directories = [
+        ("recording.dir", default_recording_dir(config.recording), config.recording.enabled),
+        ("site.state_dir", state_dir(config.site), config.calibration.online),  # calibration
+    ]
+    for key, directory, needed in directories:
+        problem = _unwritable_dir(directory) if needed else None
         if problem:
-            errors.append(f"recording.dir: {problem}")
+            errors.append(f"{key}: {problem}")
     if errors:
         prefix = f"{path}: " if path is not None else ""
         raise config_error([prefix + e for e in errors])

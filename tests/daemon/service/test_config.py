@@ -228,3 +228,18 @@ def test_every_problem_is_reported_at_once(tmp_path: Path) -> None:
     ], lines
     assert all(line.startswith(f"{bad}: ") for line in lines)
     assert str(err.value) == "; ".join(lines)
+
+
+def test_booleans_and_strings_are_not_numbers() -> None:
+    with pytest.raises(ConfigError, match=r"recording\.rotate_s: Input should be a valid number"):
+        parse_config({"recording": {"rotate_s": True}})
+    with pytest.raises(ConfigError, match=r"publish\.state_interval_s"):
+        parse_config({"publish": {"state_interval_s": "1"}})
+    assert parse_config({"recording": {"rotate_s": 60}}).recording.rotate_s == 60.0
+
+
+def test_a_flood_of_problems_is_cut_to_twenty_lines() -> None:
+    with pytest.raises(ConfigErrors) as err:
+        parse_config({f"k{i}": i for i in range(50)})
+    assert len(err.value.errors) == 20
+    assert err.value.errors[-1] == "... and 31 more problems"
