@@ -102,13 +102,16 @@ def open_source(
     if scheme == "demo:":
         from .demo import DemoSource
 
-        return DemoSource(
+        demo = DemoSource(
             width=width or 640,
             height=height or 360,
             fps=fps or 25.0,
             realtime=realtime,
             **_demo_query(name, rest),
         )
+        if max_pixels is not None and demo.width * demo.height > max_pixels:  # its 640x360
+            return _Limited(demo, max_pixels)
+        return demo
     if scheme == "file:":
         path = rest[2:] if rest.startswith("//") else rest  # file:///x is file:/x
         if not path:

@@ -89,3 +89,40 @@ def test_the_demo_needs_a_bound_and_live_sources_are_refused() -> None:
     proc = run_weatherd("detect", "rtsp://user:secret@cam/stream")
     assert proc.returncode == 2 and "secret" not in proc.stderr
     assert "a live camera or stream" in proc.stderr
+
+
+@pytest.fixture(scope="module")
+def good_mcap(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    from tests.test_fuzz_inputs import _mcap_bytes
+
+    folder = tmp_path_factory.mktemp("mcap")
+    path = folder / "good.mcap"
+    path.write_bytes(_mcap_bytes(folder))
+    return path
+
+
+def test_recover_never_replaces_a_directory_or_a_device(good_mcap: Path, tmp_path: Path) -> None:
+    targets = [tmp_path]
+    if os.geteuid() == 0:  # root may make a device node (what /dev/full is)
+        device = tmp_path / "null-device"
+        os.mknod(device, 0o600 | stat.S_IFCHR, os.makedev(1, 3))
+        targets.append(device)
+    for target in targets:
+        proc = run_weatherd("recover", good_mcap, target)
+        assert proc.returncode == 2, proc.stderr
+        assert stderr_lines(proc) == [
+            f"weatherd: error: {target}: not a regular file (give the name of the MCAP file "
+            "to write)"
+        ]
+    assert tmp_path.is_dir()
+    if len(targets) > 1:
+        assert stat.S_ISCHR(targets[1].stat().st_mode)
+
+
+def test_recover_into_a_missing_folder_is_a_clean_error(good_mcap: Path, tmp_path: Path) -> None:
+    out = tmp_path / "no" / "such" / "out.mcap"
+    proc = run_weatherd("recover", good_mcap, out)
+    assert proc.returncode == 2, proc.stderr
+    assert stderr_lines(proc) == [
+        f"weatherd: error: {out}: cannot write (No such file or directory)"
+    ]
