@@ -126,3 +126,27 @@ def test_recover_into_a_missing_folder_is_a_clean_error(good_mcap: Path, tmp_pat
     assert stderr_lines(proc) == [
         f"weatherd: error: {out}: cannot write (No such file or directory)"
     ]
+
+
+@pytest.fixture
+def tiny_disk(tmp_path: Path):
+    """A 64-KiB tmpfs (root only; skipped where it cannot be mounted)."""
+    mount = tmp_path / "tiny"
+    mount.mkdir()
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)], capture_output=True
+    )
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode(errors='replace').strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", str(mount)], check=False)
+
+
+@pytest.mark.parametrize("output", ["--jsonl", "--overlay"])
+def test_a_full_disk_under_an_output_is_named(tiny_disk: Path, output: str) -> None:
+    target = tiny_disk / ("out.jsonl" if output == "--jsonl" else "out.mp4")
+    proc = run_weatherd("detect", "demo:", "--seconds", "8", output, target)
+    assert proc.returncode == 74, proc.stderr
+    assert stderr_lines(proc) == [f"weatherd: error: {target}: no space left on device"]
