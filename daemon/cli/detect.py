@@ -195,7 +195,9 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         "detect",
         parents=parents,
         help="offline detection on a video file or image folder",
-        description="Run the detector over a video file or a folder of images.",
+        description="Run the detector over a video file, a folder of images or the demo street. "
+        "Exit 0; 2 with one line for unreadable input; 74 when an output cannot be written "
+        "(disk full, I/O error).",
     )
     detect.add_argument(
         "video",
