@@ -30,7 +30,8 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         help="validate a configuration file",
         description="Validate a configuration file as 'weatherd run' would before starting: "
         "every key and value, camera sources, ROI masks, Zenoh endpoints, instruments, the "
-        "calibration file and the recording directory. Exit 0 if valid; 2 with every problem, "
+        "calibration file, the recording and state directories. Exit 0 if valid; 2 with every "
+        "problem, "
         "one line each, naming its key, if not.",
     )
     check.add_argument("path", metavar="PATH", help="the TOML configuration file to check")
