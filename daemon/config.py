@@ -3,8 +3,11 @@
 Every table and key is checked by pydantic models with ``extra="forbid"``, so a misspelt key is
 an error, and every error names its key the way it is written in the file
 (``camera[0].fps: must be greater than 0``). The detector's parameters are the frozen dataclasses
-of :mod:`hos.params`, checked by :func:`detector_params`. The configuration does not change while
-the daemon runs.
+of :mod:`hos.params`, checked by :func:`detector_params`. Every problem of a file is reported
+at once (:class:`ConfigErrors`, one line each). Values are strictly typed, finite and bounded:
+what passes here does not fail the daemon at start-up (``weatherd check-config`` and ``run``
+add the checks that need the file system: :func:`daemon.cli.common.validated_config`). The
+configuration does not change while the daemon runs.
 
 Contract keys (relied on by users): ``[site] id``; ``[[camera]] id, source`` (plus resolution,
 fps, region-of-interest mask and detector parameters per camera); ``[zenoh] mode, connect,
@@ -48,8 +51,11 @@ __all__ = [
     "RecordingConfig",
     "SiteConfig",
     "ZenohConfig",
+    "check_endpoint",
+    "config_error",
     "default_recording_dir",
     "detector_params",
+    "error_lines",
     "load_config",
     "load_toml",
     "parse_config",
@@ -60,7 +66,8 @@ __all__ = [
 _ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
 _ID_RULE = "letters, digits, '_', '.', '-' (at most 64, starting with a letter or digit)"
 _SOURCE_SCHEMES = ("v4l2:", "file:", "demo:", "rtsp://", "rtsps://", "http://", "https://")
-#: TOML nested deeper than this is refused before parsing (Python's parser recurses per level).
+#: TOML nested deeper than this is refused (Python's TOML parser recurses once per level: far
+#: deeper, it fails with a RecursionError, which is caught and reported the same way).
 _MAX_TOML_DEPTH = 64
 #: Zenoh endpoints: ``<protocol>/<address>[?metadata][#config]``.
 _IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws", "vsock")
@@ -101,8 +108,9 @@ def error_lines(exc: ConfigError) -> tuple[str, ...]:
 
 
 class _Strict(BaseModel):
-    # inf and nan are refused everywhere: no interval, rate or size of ours means anything
-    # infinite (and int(inf) would fail only once the daemon runs).
+    # Strict types: TOML has real ones, so `true` is not 1 and "60" is not 60. inf and nan are
+    # refused everywhere: no interval, rate or size of ours means anything infinite (and
+    # int(inf) would fail only once the daemon runs).
     model_config = ConfigDict(extra="forbid", frozen=True, strict=True, allow_inf_nan=False)
 
 
