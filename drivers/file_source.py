@@ -36,6 +36,7 @@ class FileSource:
         fps: float | None = None,
         loop: bool = False,
         realtime: bool = True,
+        max_pixels: int | None = None,
     ):
         self.name = f"file:{path}"
         self.path = path
@@ -44,6 +45,7 @@ class FileSource:
         self._fps_hint = fps
         self._loop = loop
         self._realtime = realtime
+        self._max_pixels = max_pixels
         self._closed = threading.Event()
         self._lock = threading.Lock()
         self._reader: VideoReader | None = None
@@ -72,7 +74,7 @@ class FileSource:
                 self._skipped_before += self._reader.frames_skipped
                 self._reader.close()
                 self._reader = None
-            reader = open_video(self.path, fps=self._fps_hint)
+            reader = open_video(self.path, fps=self._fps_hint, max_pixels=self._max_pixels)
             self._reader, self._frames, self.fps = reader, iter(reader), reader.fps
 
     def read(self) -> LiveFrame | None:

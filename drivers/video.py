@@ -5,7 +5,10 @@ abort the whole process (heap corruption) on a malformed but real AVI that PyAV 
 What can go wrong with a file is mapped as follows:
 
 - the file cannot be opened, is not a video, has no video stream, or not one frame decodes:
-  :class:`~drivers.errors.InputError`, with a one-line message naming the file;
+  :class:`~drivers.errors.InputError`, with a one-line message naming the file. FFmpeg's
+  text-mode art decoders (``bintext``, ``ansi``, ``xbin``, ``idf``), which FFmpeg picks by the
+  extension alone (``.bin``, ``.nfo``, ``.ans``...) and which turn *any* bytes into a picture of
+  text, count as "not a video": random bytes named ``.bin`` are refused, not analysed;
 - a corrupt packet or frame in the middle (or a truncated end): skipped, counted in
   :attr:`VideoReader.frames_skipped` and logged once when the reader finishes, never fatal.
   Frames inside a damaged stretch that the demuxer jumps over are not seen, so not counted;
@@ -15,6 +18,10 @@ Decoding runs in a background thread that keeps a few frames ready in a bounded 
 it overlaps with processing on a second core. FFmpeg's own decoder threads are left at PyAV's
 default (slice threading only): frame threading ("AUTO") was measured no faster, or slower,
 once the consumer also needs the CPU (see ``_THREAD_TYPE``).
+
+Frames with more pixels than ``max_pixels`` (1920 x 1080 by default) are shrunk by an integer
+factor as they are decoded (:mod:`drivers.frame_size`): the queue, the detector and the
+overlay then only ever hold frames of at most that size.
 
 Grey is the luma (Y) plane taken directly from planar YUV frames (no colour conversion; a
 limited-range 16-235 luma is stretched to 0-255 by a lookup table, exactly as FFmpeg would);
@@ -49,6 +56,7 @@ import cv2
 import numpy as np
 
 from .errors import InputError, WeatherdError
+from .frame_size import MAX_FRAME_PIXELS, Shrinker, downscale
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -82,6 +90,8 @@ _THREAD_TYPE = "SLICE"
 _REORDER_FRAMES = 4
 #: Consecutive demuxer errors after which the rest of a file is given up as unreadable.
 _MAX_DEMUX_ERRORS = 16
+#: FFmpeg's text-mode art decoders: they draw any bytes as text, so they prove nothing.
+_TEXT_ART_CODECS = frozenset({"ansi", "bintext", "idf", "xbin"})
 #: Pixel formats whose first plane is 8-bit luma, taken as grey without conversion.
 _LUMA_FORMATS = frozenset(
     {
@@ -138,6 +148,7 @@ class _Source(Protocol):
     fps: float
     skipped: int
     first_error: str
+    frame_count: int | None
 
     def frames(self) -> Iterator[Frame]: ...
 
@@ -151,7 +162,12 @@ class _End:
     error: BaseException | None = None
 
 
-def open_video(path: str | PathLike[str], *, fps: float | None = None) -> VideoReader:
+def open_video(
+    path: str | PathLike[str],
+    *,
+    fps: float | None = None,
+    max_pixels: int | None = MAX_FRAME_PIXELS,
+) -> VideoReader:
     """Open a video file or a folder of images for reading grey frames.
 
     Parameters
@@ -160,6 +176,8 @@ def open_video(path: str | PathLike[str], *, fps: float | None = None) -> VideoR
         images, read in order of file name
     fps : frames per second, optional. For an image folder, the frame rate (default 25); for a
         video, used only when the container gives no frame rate.
+    max_pixels : frames with more pixels are shrunk by the smallest integer factor that brings
+        them within (:func:`drivers.frame_size.downscale`); None: no limit.
 
     Returns
     -------
@@ -175,9 +193,9 @@ def open_video(path: str | PathLike[str], *, fps: float | None = None) -> VideoR
         raise ValueError(f"fps must be > 0, got {fps}")
     path = Path(path)
     if path.is_dir():
-        source: _Source = _ImageFolder(path, fps=fps or DEFAULT_FPS)
+        source: _Source = _ImageFolder(path, fps=fps or DEFAULT_FPS, max_pixels=max_pixels)
     elif path.is_file():
-        source = _AvFile(path, fps=fps or DEFAULT_FPS)
+        source = _AvFile(path, fps=fps or DEFAULT_FPS, max_pixels=max_pixels)
     elif path.exists():
         raise InputError(f"{path}: not a regular file or directory")
     else:
@@ -211,15 +229,19 @@ class VideoReader:
 
     Attributes
     ----------
-    width, height : int, size of the first frame in pixels
+    width, height : int, size of the first frame in pixels (after any downscale)
     fps : float, the container's frame rate (or the one given / the default)
     frames_skipped : int, corrupt packets, frames or images skipped so far
+    frame_count : int or None, how many frames the file holds, from its container (the
+        stream's frame count, else its duration times ``fps``) or the folder's images; None
+        when unknown. An estimate, for progress bars: corrupt frames make fewer.
     """
 
     def __init__(self, source: _Source, *, queue_frames: int = _QUEUE_FRAMES):
         self._source = source
         self.name = source.name
         self.fps = float(source.fps)
+        self.frame_count = source.frame_count
         self._queue: queue.Queue[Frame | _End] = queue.Queue(maxsize=queue_frames)
         self._stop = threading.Event()
         self._ended = False
@@ -353,10 +375,11 @@ class _Timeline:
 class _AvFile:
     """A video file demuxed and decoded by PyAV (FFmpeg)."""
 
-    def __init__(self, path: Path, *, fps: float):
+    def __init__(self, path: Path, *, fps: float, max_pixels: int | None):
         self.name = str(path)
         self.skipped = 0
         self.first_error = ""
+        self._shrink = Shrinker(self.name, max_pixels)
         try:
             self._container = av.open(str(path), mode="r", metadata_errors="ignore")
         except (av.FFmpegError, OSError, ValueError, UnicodeError) as exc:
@@ -366,9 +389,18 @@ class _AvFile:
             if not streams:
                 raise InputError(f"{path}: has no video stream")
             self._stream = streams[0]
+            if self._stream.codec_context is None:  # a codec this FFmpeg does not know
+                raise InputError(f"{path}: no decoder for its video stream")
+            codec = self._stream.codec_context.name
+            if codec in _TEXT_ART_CODECS:
+                raise InputError(
+                    f"{path}: not a video (FFmpeg would draw its bytes as text-mode art, "
+                    f"decoder {codec!r}, going by the file name alone)"
+                )
             self._stream.thread_type = _THREAD_TYPE
             rate = self._stream.average_rate or self._stream.guessed_rate
             self.fps = _valid_rate(rate) or fps
+            self.frame_count = _frame_count(self._stream, self._container, self.fps)
         except BaseException:
             self._container.close()
             raise
@@ -389,7 +421,7 @@ class _AvFile:
                     self._skip("frame decoded with errors")
                     continue
                 try:
-                    held.append(_luma(frame))
+                    held.append(_luma(frame, self._shrink.factor(frame.width, frame.height)))
                 except (av.FFmpegError, ValueError) as exc:
                     self._skip(exc)
                     continue
@@ -434,11 +466,12 @@ class _AvFile:
 class _ImageFolder:
     """A directory of images, one frame each, in order of file name."""
 
-    def __init__(self, directory: Path, *, fps: float):
+    def __init__(self, directory: Path, *, fps: float, max_pixels: int | None):
         self.name = str(directory)
         self.fps = fps
         self.skipped = 0
         self.first_error = ""
+        self._shrink = Shrinker(self.name, max_pixels)
         try:
             entries = list(directory.iterdir())
         except OSError as exc:
@@ -447,6 +480,7 @@ class _ImageFolder:
         if not self._files:
             kinds = ", ".join(sorted(s[1:] for s in IMAGE_SUFFIXES))
             raise InputError(f"{directory}: the folder holds no image ({kinds})")
+        self.frame_count: int | None = len(self._files)
 
     def frames(self) -> Iterator[Frame]:
         index = 0
@@ -456,6 +490,7 @@ class _ImageFolder:
             if gray is None:
                 self._skip(f"{path.name}: unreadable image")
                 continue
+            gray = self._shrink(gray)
             if shape is not None and gray.shape != shape:
                 self._skip(f"{path.name}: size {gray.shape[::-1]} differs from {shape[::-1]}")
                 continue
@@ -472,12 +507,14 @@ class _ImageFolder:
         pass
 
 
-def _luma(frame: av.VideoFrame) -> np.ndarray:
-    """(H, W) uint8 full-range grey copy of a decoded frame, respecting the line stride.
+def _luma(frame: av.VideoFrame, factor: int = 1) -> np.ndarray:
+    """(H, W) uint8 full-range grey copy of a decoded frame, respecting the line stride, its
+    ``factor x factor`` blocks averaged (:func:`~drivers.frame_size.downscale`) when > 1.
 
     Planar YUV: the Y plane itself, limited range (16-235) stretched to 0-255 by a lookup table
     exactly as FFmpeg's own conversion to ``gray`` does, so that a file, an image folder and a
-    camera give the same grey levels. Anything else: FFmpeg's conversion.
+    camera give the same grey levels. Anything else: FFmpeg's conversion. A frame to shrink is
+    shrunk straight from the decoder's plane: no full-size copy is made.
     """
     height, width = frame.height, frame.width
     name = frame.format.name
@@ -487,11 +524,12 @@ def _luma(frame: av.VideoFrame) -> np.ndarray:
         data = np.frombuffer(plane, dtype=np.uint8)
         if stride >= width and data.size >= stride * height:
             y = data[: stride * height].reshape(height, stride)[:, :width]
+            y = downscale(y, factor) if factor > 1 else y  # a new array when shrunk
             if name == "gray" or name.startswith("yuvj") or frame.color_range == _FULL_RANGE:
-                return y.copy()
+                return y if factor > 1 else y.copy()
             return cv2.LUT(y, _LIMITED_TO_FULL)  # a new, contiguous array
     gray = frame.to_ndarray(format="gray")
-    return np.ascontiguousarray(gray[:height, :width])
+    return downscale(np.ascontiguousarray(gray[:height, :width]), factor)
 
 
 def read_gray_image(path: str | PathLike[str]) -> np.ndarray | None:
@@ -543,6 +581,20 @@ def _seconds(pts: int | None, time_base: Fraction | None) -> float | None:
     return t if math.isfinite(t) else None
 
 
+def _frame_count(stream: av.video.stream.VideoStream, container: object, fps: float) -> int | None:
+    """Frames in the stream as the container says (its count, else duration x rate), or None."""
+    if stream.frames and stream.frames > 0:
+        return int(stream.frames)
+    duration_s = None
+    if stream.duration and stream.time_base:
+        duration_s = float(stream.duration * stream.time_base)
+    elif getattr(container, "duration", None):
+        duration_s = container.duration / av.time_base
+    if duration_s is None or not (math.isfinite(duration_s) and duration_s > 0):
+        return None
+    return max(1, round(duration_s * fps))
+
+
 def _valid_rate(rate: Fraction | None) -> float | None:
     if rate is None or rate.denominator == 0:
         return None
@@ -583,6 +635,7 @@ class VideoWriter:
         self._size = (self.width + self.width % 2, self.height + self.height % 2)
         self.frames_written = 0
         codec = _encoder()
+        created = not self.path.exists()
         try:
             self.path.open("wb").close()  # FFmpeg would only fail at the first frame
         except OSError as exc:
@@ -590,7 +643,8 @@ class VideoWriter:
         try:
             self._container = av.open(str(self.path), mode="w")
         except (av.FFmpegError, OSError, ValueError) as exc:
-            self.path.unlink(missing_ok=True)
+            if created and self.path.is_file():  # never a device or a file that was there
+                self.path.unlink(missing_ok=True)
             raise WeatherdError(f"{self.path}: cannot write a video ({_reason(exc)})") from None
         try:
             rate = Fraction(fps).limit_denominator(1001)

@@ -2,9 +2,12 @@
 options) and its handler; this one assembles the parser and maps exceptions to exit statuses.
 
 Exit statuses (contract): 0 success; 2 unreadable or malformed input or configuration, with
-one line ``weatherd: error: <message>`` on stderr and never a traceback; 1 an unexpected internal
-error (one line; ``--debug`` shows the traceback); 130 interrupted by Ctrl-C (the output written
-so far is kept and closed properly).
+one line ``weatherd: error: <message>`` on stderr per problem (a configuration with several
+problems gets one line each) and never a traceback; 74 (``EX_IOERR``) an output or device
+failed: the disk is full, a quota or the file size limit was reached, an I/O error, a read-only
+file system (one line ``weatherd: error: PATH: no space left on device``; systemd restarts
+``run`` on it, unlike 2); 1 an unexpected internal error (one line; ``--debug`` shows the
+traceback); 130 interrupted by Ctrl-C (the output written so far is kept and closed properly).
 
 Logging is configured here and only here: to stderr, one line per event.
 """
@@ -13,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import logging
 import os
 import signal
@@ -36,7 +40,14 @@ from . import (
     simulate,
     watch,
 )
-from .common import EXIT_INTERNAL, EXIT_INTERRUPTED, EXIT_USAGE, ArgumentParser, print_error
+from .common import (
+    EXIT_INTERNAL,
+    EXIT_INTERRUPTED,
+    EXIT_IO,
+    EXIT_USAGE,
+    ArgumentParser,
+    print_error,
+)
 
 __all__ = ["main"]
 
@@ -69,7 +80,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return args.handler(args)
     except WeatherdError as exc:
-        print_error(str(exc))
+        for line in getattr(exc, "errors", None) or (str(exc),):  # ConfigErrors: one a line
+            print_error(line)
         return EXIT_USAGE
     except KeyboardInterrupt:
         return EXIT_INTERRUPTED
@@ -80,10 +92,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     except Exception as exc:
         if _raised_by_interrupt(exc):
             return EXIT_INTERRUPTED
+        device = _device_error(exc)
+        if device is not None:
+            if args.debug:
+                traceback.print_exc()
+            print_error(device)
+            return EXIT_IO
         if args.debug:
             traceback.print_exc()
         print_error(f"internal error: {type(exc).__name__}: {exc}")
         return EXIT_INTERNAL
+
+
+#: Errors of the device rather than of the input or of weatherd: exit status 74.
+_DEVICE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EROFS})
+
+
+def _device_error(exc: BaseException) -> str | None:
+    """``PATH: no space left on device`` when ``exc`` (or what caused it) is a full disk, a
+    quota, an I/O error or a read-only file system; None for anything else."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, OSError) and exc.errno in _DEVICE_ERRNOS:
+            what = os.strerror(exc.errno).lower()
+            return f"{exc.filename}: {what}" if exc.filename else f"writing an output: {what}"
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def _raised_by_interrupt(exc: BaseException) -> bool:

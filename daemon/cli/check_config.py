@@ -4,24 +4,16 @@ from __future__ import annotations
 
 import argparse
 
-from drivers.errors import ConfigError
-
-from .common import EXIT_OK
+from .common import EXIT_OK, validated_config
 
 __all__ = ["register"]
 
 
 def _check_config(args: argparse.Namespace) -> int:
     """``weatherd check-config PATH``: validate, print a one-line summary, exit 0 or 2."""
-    from daemon.config import load_config
-    from daemon.service.app import check_paths
     from drivers.frames import mask_credentials
 
-    config = load_config(args.path)
-    try:
-        check_paths(config)
-    except ConfigError as exc:
-        raise ConfigError(f"{args.path}: {exc}") from None
+    config = validated_config(args.path)
     cams = (
         ", ".join(f"{c.id} ({mask_credentials(c.source)})" for c in config.camera)
         or "the demo camera"
@@ -36,7 +28,11 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         "check-config",
         parents=parents,
         help="validate a configuration file",
-        description="Validate a configuration file; exit 0 if valid, 2 with the key if not.",
+        description="Validate a configuration file as 'weatherd run' would before starting: "
+        "every key and value, camera sources, ROI masks, Zenoh endpoints, instruments, the "
+        "calibration file, the recording and state directories. Exit 0 if valid; 2 with every "
+        "problem, "
+        "one line each, naming its key, if not.",
     )
-    check.add_argument("path", metavar="PATH")
+    check.add_argument("path", metavar="PATH", help="the TOML configuration file to check")
     check.set_defaults(handler=_check_config)

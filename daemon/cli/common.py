@@ -8,9 +8,12 @@ import dataclasses
 import os
 import signal
 import sys
+import tempfile
 import threading
+from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
+from drivers.errors import ConfigError
 from hos.params import DetectorParams
 
 if TYPE_CHECKING:
@@ -19,6 +22,7 @@ if TYPE_CHECKING:
 __all__ = [
     "EXIT_INTERNAL",
     "EXIT_INTERRUPTED",
+    "EXIT_IO",
     "EXIT_OK",
     "EXIT_USAGE",
     "ArgumentParser",
@@ -26,9 +30,12 @@ __all__ = [
     "as_json",
     "config_params",
     "print_error",
+    "validated_config",
 ]
 
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
+#: An output or device failed (disk full, I/O error...): sysexits' EX_IOERR.
+EXIT_IO = 74
 
 
 def as_json(value: object) -> object:
@@ -71,6 +78,90 @@ def config_params(path: str | None) -> tuple[Config | None, DetectorParams]:
 
     config = load_config(path)
     return config, detector_params({"detector": config.detector})
+
+
+def validated_config(path: str | None) -> Config:
+    """The configuration ``run`` will use (None: the defaults, the demo camera), checked as
+    ``run`` checks it before it starts anything: what ``check-config`` accepts, ``run`` starts
+    with, and what one refuses the other refuses with the same lines.
+
+    Raises
+    ------
+    ConfigError : every problem found (:class:`~daemon.config.ConfigErrors` for several), each
+        starting with the file name.
+    """
+    from daemon.config import (
+        config_error,
+        default_recording_dir,
+        error_lines,
+        load_config,
+        parse_config,
+        state_dir,
+    )
+    from daemon.service.app import check_paths
+
+    config = load_config(path) if path is not None else parse_config({})
+    errors: list[str] = []
+    try:
+        check_paths(config)
+    except ConfigError as exc:
+        errors += error_lines(exc)
+    if config.zenoh.enabled and config.zenoh.config_file and not errors:
+        errors += _zenoh_file_errors(config)
+    directories = [
+        ("recording.dir", default_recording_dir(config.recording), config.recording.enabled),
+        ("site.state_dir", state_dir(config.site), config.calibration.online),  # calibration
+    ]
+    for key, directory, needed in directories:
+        problem = _unwritable_dir(directory) if needed else None
+        if problem:
+            errors.append(f"{key}: {problem}")
+    if errors:
+        prefix = f"{path}: " if path is not None else ""
+        raise config_error([prefix + e for e in errors])
+    return config
+
+
+def _zenoh_file_errors(config: Config) -> list[str]:
+    """The endpoints a Zenoh config file brings, checked as ``[zenoh]``'s own are (Zenoh would
+    only refuse a bad one when the session opens, and the daemon would retry for ever)."""
+    import json
+
+    from daemon.config import check_endpoint
+    from daemon.transport.publisher import zenoh_config
+
+    zc = config.zenoh
+    conf = zenoh_config(
+        mode=zc.mode, connect=zc.connect, listen=zc.listen, config_file=zc.config_file
+    )
+    errors = []
+    for kind in ("connect", "listen"):
+        endpoints = json.loads(conf.get_json(f"{kind}/endpoints") or "[]")
+        if isinstance(endpoints, dict):  # per mode: {"router": [...], "peer": [...]}
+            endpoints = [e for mode in endpoints.values() for e in mode or ()]
+        for endpoint in endpoints:
+            try:
+                check_endpoint(str(endpoint), listen=kind == "listen")
+            except ValueError as exc:
+                errors.append(f"zenoh.config_file: {zc.config_file}: {kind}/endpoints: {exc}")
+    return errors
+
+
+def _unwritable_dir(directory: Path) -> str | None:
+    """Why ``directory`` cannot be created or written by this user, or None if it can: a
+    directory is made and removed at once where it would go (``os.access`` says yes to root
+    on a read-only or virtual file system)."""
+    target = directory.absolute()
+    while not target.is_dir():
+        if target.exists() or target.is_symlink() or target.parent == target:
+            return f"cannot create {directory} ({target} is not a directory)"
+        target = target.parent
+    verb = "write in" if target == directory.absolute() else "create"
+    try:
+        os.rmdir(tempfile.mkdtemp(prefix=".weatherd-check-", dir=target))
+    except OSError as exc:
+        return f"cannot {verb} {directory} ({exc.strerror or exc})"
+    return None
 
 
 class ArgumentParser(argparse.ArgumentParser):

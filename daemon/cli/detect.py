@@ -1,23 +1,32 @@
-"""``weatherd detect VIDEO``: the detector over a video file or image folder, offline."""
+"""``weatherd detect VIDEO``: the detector over a video file, an image folder or the demo
+street, offline."""
 
 from __future__ import annotations
 
 import argparse
 import contextlib
 import json
+import math
 import os
 import sys
 import time
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import TextIO
 
 import numpy as np
 
 from daemon.offline.progress import progress_bar
 from daemon.service.detection import detect_frames
-from drivers.errors import WeatherdError
-from drivers.video import Frame, VideoWriter, open_video, read_roi_mask, roi_for_size
+from drivers.errors import InputError, WeatherdError
+from drivers.frame_size import (
+    DETECTOR_BYTES_PER_PIXEL,
+    MAX_FRAME_PIXELS,
+    MAX_PIXELS_LIMIT,
+    MIN_FRAME_PIXELS,
+)
+from drivers.sources import open_frames
+from drivers.video import Frame, VideoWriter, read_roi_mask, roi_for_size
 from hos.overlay import draw_overlay
 from hos.pipeline import HosDetector
 from hos.result import FrameResult
@@ -32,8 +41,12 @@ def _detect(args: argparse.Namespace) -> int:
     params = config_params(args.config)[1]
     frames = rain_frames = skipped = 0
     interrupted = False
+    if args.video.lower().startswith("demo:") and args.frames is None and args.seconds is None:
+        raise InputError(
+            f"the demo street ({args.video}) never ends: give --frames N or --seconds S"
+        )
     with contextlib.ExitStack() as stack:  # closed in reverse: overlay, JSONL, video
-        video = stack.enter_context(open_video(args.video))
+        video = stack.enter_context(open_frames(args.video, max_pixels=args.max_pixels))
         roi = read_roi(args.roi, width=video.width, height=video.height) if args.roi else None
         detector = HosDetector(params, roi=roi)
         jsonl = stack.enter_context(_jsonl_output(args.jsonl)) if args.jsonl else None
@@ -48,6 +61,10 @@ def _detect(args: argparse.Namespace) -> int:
 
         def decoded() -> Iterator[tuple[float, np.ndarray]]:
             for frame in video:
+                if args.frames is not None and frame.index >= args.frames:
+                    return
+                if args.seconds is not None and frame.t_s >= args.seconds:
+                    return
                 in_flight.append(frame)
                 yield frame.t_s, frame.gray
 
@@ -98,21 +115,48 @@ def _json_line(result: FrameResult) -> str:
     return json.dumps(result.to_json(), separators=(",", ":"), allow_nan=False) + "\n"
 
 
+class _Lines:
+    """A text output whose write errors name it: a full disk is ``PATH: no space left on
+    device`` (an ``OSError`` with the file name, exit status 74), not an internal error."""
+
+    def __init__(self, stream: TextIO, name: str):
+        self._stream, self.name = stream, name
+
+    def write(self, text: str) -> None:
+        with _naming(self.name):
+            self._stream.write(text)
+
+    def flush(self) -> None:
+        with _naming(self.name):
+            self._stream.flush()
+
+
 @contextlib.contextmanager
-def _jsonl_output(target: str) -> Iterator[TextIO]:
+def _naming(name: str) -> Iterator[None]:
+    try:
+        yield
+    except OSError as exc:
+        if exc.filename is not None or exc.errno is None:
+            raise
+        raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), name) from None
+
+
+@contextlib.contextmanager
+def _jsonl_output(target: str) -> Iterator[_Lines]:
     """The JSONL stream: ``-`` is stdout, anything else a file (overwritten)."""
     if target == "-":
+        lines = _Lines(sys.stdout, "standard output")
         try:
-            yield sys.stdout
+            yield lines
         finally:
-            sys.stdout.flush()
+            lines.flush()
         return
     try:
         stream = open(target, "w", encoding="utf-8")
     except OSError as exc:
         raise WeatherdError(f"{target}: cannot write ({exc.strerror or exc})") from None
-    with stream:
-        yield stream
+    with _naming(target), stream:
+        yield _Lines(stream, target)
 
 
 def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.ndarray:
@@ -127,20 +171,65 @@ def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.nda
     return roi_for_size(read_roi_mask(path), width=width, height=height)
 
 
+def _positive(kind: type) -> Callable[[str], float]:
+    def parse(text: str) -> float:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+        if not (math.isfinite(value) and value > 0):
+            raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+        return value
+
+    return parse
+
+
+def _max_pixels(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of pixels, got {text!r}") from None
+    if not MIN_FRAME_PIXELS <= value <= MAX_PIXELS_LIMIT:
+        raise argparse.ArgumentTypeError(
+            f"must be {MIN_FRAME_PIXELS} to {MAX_PIXELS_LIMIT} pixels, got {value}"
+        )
+    return value
+
+
 def register(commands: argparse._SubParsersAction, parents: list[argparse.ArgumentParser]) -> None:
     """Add ``weatherd detect`` to ``commands``."""
     detect = commands.add_parser(
         "detect",
         parents=parents,
         help="offline detection on a video file or image folder",
-        description="Run the detector over a video file or a folder of images.",
+        description="Run the detector over a video file, a folder of images or the demo street. "
+        "Exit 0; 2 with one line for unreadable input; 74 when an output cannot be written "
+        "(disk full, I/O error).",
     )
-    detect.add_argument("video", metavar="VIDEO", help="video file, or folder of images")
+    detect.add_argument(
+        "video",
+        metavar="VIDEO",
+        help="a video file, a folder of images, file:PATH, or demo: (demo:?seed=N) the "
+        "built-in synthetic street, which needs --frames or --seconds",
+    )
     detect.add_argument(
         "--jsonl", metavar="PATH", help="write one JSON object per frame ('-' for stdout)"
     )
     detect.add_argument("--overlay", metavar="OUT", help="write the overlay video (.mp4...)")
     detect.add_argument("--config", metavar="PATH", help="TOML file; its [detector] table")
     detect.add_argument("--roi", metavar="MASK", help="mask image, nonzero = analysed")
+    detect.add_argument(
+        "--max-pixels",
+        metavar="N",
+        type=_max_pixels,
+        default=MAX_FRAME_PIXELS,
+        help="frames with more pixels are shrunk by an integer factor before detection "
+        f"(default {MAX_FRAME_PIXELS} = 1920x1080; at most {MAX_PIXELS_LIMIT}; "
+        f"the detector needs about {DETECTOR_BYTES_PER_PIXEL} bytes a pixel)",
+    )
+    detect.add_argument("--frames", metavar="N", type=_positive(int), help="stop after N frames")
+    detect.add_argument(
+        "--seconds", metavar="S", type=_positive(float), help="stop after S seconds of video"
+    )
     detect.add_argument("--quiet", action="store_true", help="no summary line on stderr")
     detect.set_defaults(handler=_detect)

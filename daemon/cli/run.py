@@ -7,7 +7,7 @@ import faulthandler
 import logging
 import signal
 
-from .common import StopOnSignals
+from .common import StopOnSignals, validated_config
 
 __all__ = ["register"]
 
@@ -20,13 +20,12 @@ def _run(args: argparse.Namespace) -> int:
     Exit statuses: 0 after a signal, 2 for a configuration error (systemd does not restart on
     it), 1 for anything unexpected (systemd restarts).
     """
-    from daemon.config import load_config, parse_config
     from daemon.service.app import Daemon  # imports Zenoh and the recorder only when needed
 
     # A watchdog timeout is a SIGABRT: the journal then shows where every thread was.
     faulthandler.enable(all_threads=True)
 
-    config = load_config(args.config) if args.config else parse_config({})
+    config = validated_config(args.config)  # exactly what check-config accepts
     stop = StopOnSignals()
     try:
         status = Daemon(config, stop=stop.event).run()

@@ -25,6 +25,7 @@ from typing import Any
 
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
+from zstandard import ZstdError
 
 from drivers.errors import InputError
 
@@ -32,7 +33,22 @@ __all__ = ["find_mcap_files", "iter_frames"]
 
 log = logging.getLogger(__name__)
 
-_DAMAGED = (McapError, struct.error, ValueError, EOFError, RuntimeError, OSError, KeyError)
+#: What a damaged file raises from the mcap reader: its own errors, short reads, a corrupt
+#: zstd chunk (ZstdError), a corrupt lz4 chunk (RuntimeError), and a record length read from
+#: garbage that the reader tries to allocate (MemoryError, OverflowError; found by
+#: tests/test_fuzz_inputs.py).
+_DAMAGED = (
+    McapError,
+    struct.error,
+    ValueError,
+    EOFError,
+    RuntimeError,
+    OSError,
+    KeyError,
+    ZstdError,
+    MemoryError,
+    OverflowError,
+)
 
 
 # ---------------------------------------------------------------------------------------------

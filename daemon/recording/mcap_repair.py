@@ -11,6 +11,7 @@ not MCAP at all is logged and left alone.
 
 from __future__ import annotations
 
+import errno
 import io
 import itertools
 import logging
@@ -35,6 +36,9 @@ from .recorder import _CORRUPT, _MAX_CHUNK_BYTES, LIBRARY, MCAP_MAGIC, _compress
 __all__ = ["RecoverResult", "recover", "recover_directory"]
 
 log = logging.getLogger(__name__)
+
+#: Why an output file cannot be created that is the user's to fix (not the disk's).
+_CANNOT_CREATE = frozenset({errno.ENOENT, errno.ENOTDIR, errno.EISDIR, errno.EACCES, errno.EPERM})
 
 
 @dataclass(frozen=True)
@@ -129,11 +133,15 @@ def recover(
     Raises
     ------
     InputError
-        ``src`` cannot be read or does not start with the MCAP magic (empty included).
+        ``src`` cannot be read or does not start with the MCAP magic (empty included); ``dst``
+        is not a regular file (a directory, a device: it would be replaced) or cannot be
+        created (no such folder, no permission).
     OSError
-        ``dst`` cannot be written.
+        ``dst`` cannot be written: the disk is full, an I/O error (the file name is given).
     """
     src, dst = Path(src), Path(dst)
+    if dst.exists() and not dst.is_file():
+        raise InputError(f"{dst}: not a regular file (give the name of the MCAP file to write)")
     try:
         f = open(src, "rb")  # closed by the with below
     except OSError as exc:
@@ -152,6 +160,14 @@ def recover(
         try:
             counts = _copy_records(_complete_records(f, size, scan), tmp, compression)
             os.replace(tmp, dst)
+        except OSError as exc:
+            with suppress(OSError):
+                tmp.unlink()
+            if exc.errno in _CANNOT_CREATE:
+                raise InputError(f"{dst}: cannot write ({exc.strerror})") from None
+            if exc.filename is None and exc.errno is not None:  # a full disk names the file
+                raise OSError(exc.errno, exc.strerror or os.strerror(exc.errno), str(dst)) from None
+            raise
         except BaseException:
             with suppress(OSError):
                 tmp.unlink()

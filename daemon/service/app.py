@@ -13,6 +13,7 @@ Start-up, in order: recover unfinished MCAP files, open the recorder, start the 
 from __future__ import annotations
 
 import contextlib
+import functools
 import logging
 import math
 import os
@@ -28,7 +29,14 @@ from typing import Any
 import cv2
 import numpy as np
 
-from daemon.config import CameraConfig, Config, default_recording_dir, state_dir
+from daemon.config import (
+    CameraConfig,
+    Config,
+    config_error,
+    default_recording_dir,
+    error_lines,
+    state_dir,
+)
 from daemon.recording.mcap_repair import recover_directory
 from daemon.recording.recorder import (
     Recorder,
@@ -253,6 +261,7 @@ def _open_camera(camera: CameraConfig) -> FrameSource:
         fps=camera.fps,
         loop=camera.loop,
         realtime=camera.realtime,
+        max_pixels=camera.max_pixels,
     )
 
 
@@ -549,12 +558,33 @@ def _recover_recordings(directory: Path, parts: list[Path]) -> None:
 
 def check_paths(config: Config) -> None:
     """Raise :class:`ConfigError` for what only shows when used: unreadable ROI masks, camera
-    sources that do not parse, Zenoh endpoints or a Zenoh config file that Zenoh refuses."""
+    sources that do not parse, Zenoh endpoints or a Zenoh config file that Zenoh refuses
+    (:class:`ConfigErrors`: all of them)."""
+    zc = config.zenoh
+    checks: list[Callable[[], object]] = []
     for cam in config.camera:
-        _read_roi_image(cam)
-        _open_camera(cam)  # parses the spec, no I/O
-    if config.zenoh.enabled:
-        zc = config.zenoh
-        zenoh_config(mode=zc.mode, connect=zc.connect, listen=zc.listen, config_file=zc.config_file)
-    InstrumentHub(config.instrument, site=config.site.id, emit=lambda *_: None)  # no I/O
-    _calibration(config)
+        checks += [functools.partial(_read_roi_image, cam), functools.partial(_open_camera, cam)]
+    if zc.enabled:
+        checks.append(
+            functools.partial(
+                zenoh_config,
+                mode=zc.mode,
+                connect=zc.connect,
+                listen=zc.listen,
+                config_file=zc.config_file,
+            )
+        )
+    checks.append(lambda: InstrumentHub(config.instrument, site=config.site.id, emit=_ignore))
+    checks.append(functools.partial(_calibration, config))
+    errors = []
+    for check in checks:  # none does I/O beyond reading files
+        try:
+            check()
+        except ConfigError as exc:
+            errors += error_lines(exc)
+    if errors:
+        raise config_error(errors)
+
+
+def _ignore(*_: object) -> None:
+    """An instrument hub's ``emit`` while only checking the configuration."""

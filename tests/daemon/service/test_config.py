@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from daemon.config import default_recording_dir, load_config, parse_config
+from daemon.config import ConfigErrors, default_recording_dir, load_config, parse_config
 from drivers.errors import ConfigError
 from tests.conftest import REPO
 
@@ -98,3 +98,148 @@ def test_recording_dir_defaults_to_the_state_directory(monkeypatch: pytest.Monke
     assert default_recording_dir(parse_config({}).recording) == Path("recordings")
     cfg = parse_config({"recording": {"dir": "/data/rec"}}).recording
     assert default_recording_dir(cfg) == Path("/data/rec")
+
+
+# -- issue 11: what run would trip on is refused here, every problem at once --------------
+@pytest.mark.parametrize(
+    "text",
+    [
+        "a = " + "[" * 65 + "]" * 65,
+        "a = " + "[" * 900 + "]" * 900,
+        "a = " + "[" * 5000 + "]" * 5000,
+        "a = " + "{b = " * 70 + "1" + "}" * 70,
+        "a" + ".b" * 70 + " = 1",
+    ],
+    ids=["arrays-65", "arrays-900", "arrays-5000", "inline-tables-70", "dotted-keys-70"],
+)
+def test_deep_nesting_is_a_config_error(tmp_path: Path, text: str) -> None:
+    deep = tmp_path / "deep.toml"
+    deep.write_text(text + "\n")
+    with pytest.raises(ConfigError, match=r"deep\.toml: .*nested"):
+        load_config(deep)
+
+
+def test_nesting_within_the_limit_reaches_validation(tmp_path: Path) -> None:
+    ok = tmp_path / "ok.toml"
+    ok.write_text(
+        "[[instrument]]\nid='g'\ndriver='tipping-bucket'\nport='x'\noptions = { a = [[[1.0]]] }\n"
+    )
+    assert load_config(ok).instrument[0].options == {"a": [[[1.0]]]}
+
+
+@pytest.mark.parametrize(
+    ("data", "key"),
+    [
+        ({"recording": {"rotate_s": float("inf")}}, "recording.rotate_s: Input should be a finite"),
+        ({"calibration": {"window_s": float("nan")}}, "calibration.window_s:"),
+        ({"camera": [{"id": "c", "source": "demo:", "fps": float("inf")}]}, "camera[0].fps:"),
+        (
+            {
+                "instrument": [
+                    {"id": "g", "driver": "x", "port": "p", "options": {"k": [float("inf")]}}
+                ]
+            },
+            "instrument[0].options.k[0]: must be a finite number",
+        ),
+        ({"recording": {"rotate_mb": 1e-9}}, "recording.rotate_mb:"),
+        ({"recording": {"flush_interval_s": 0.01}}, "recording.flush_interval_s:"),
+        ({"recording": {"thumbnail_interval_s": 0.5}}, "recording.thumbnail_interval_s: must be 0"),
+        ({"publish": {"status_interval_s": 1e-6}}, "publish.status_interval_s:"),
+        ({"publish": {"state_interval_s": 1e300}}, "publish.state_interval_s:"),
+        (
+            {"instrument": [{"id": "g", "driver": "x", "port": "p", "poll_interval_s": 1e-9}]},
+            "instrument[0].poll_interval_s:",
+        ),
+        (
+            {"camera": [{"id": "c", "source": "demo:", "max_pixels": 10**9}]},
+            "camera[0].max_pixels:",
+        ),
+        (
+            {"camera": [{"id": "c", "source": "demo:", "width": 2560, "height": 1440}]},
+            "camera[0]: width x height = 2560x1440",
+        ),
+    ],
+)
+def test_values_run_cannot_use_are_refused(data: dict, key: str) -> None:
+    with pytest.raises(ConfigError) as err:
+        parse_config(data)
+    assert key in str(err.value)
+
+
+@pytest.mark.parametrize(
+    "endpoint",
+    [
+        "tcp/127.0.0.1:7447",
+        "udp/10.0.0.1:7447",
+        "tls/router.example:7447",
+        "quic/host:1",
+        "ws/127.0.0.1:8000",
+        "tcp/[::1]:7447",
+        "tcp/[fe80::1%eth0]:7447",
+        "unixsock-stream//run/zenoh.sock",
+        "tcp/127.0.0.1:7447?prio=1#iface=lo",
+    ],
+)
+def test_good_endpoints_pass(endpoint: str) -> None:
+    config = parse_config({"zenoh": {"connect": [endpoint], "listen": [endpoint]}})
+    assert config.zenoh.connect == [endpoint]
+
+
+@pytest.mark.parametrize(
+    ("endpoint", "what"),
+    [
+        ("tcp/127.0.0.1:99999", "port must be"),
+        ("tcp/127.0.0.1:0", "port must be 1 to 65535"),
+        ("tcp/127.0.0.1", "expected HOST:PORT"),
+        ("tcp/::1:7447", "expected HOST:PORT"),
+        ("127.0.0.1:7447", "expected PROTOCOL/ADDRESS"),
+        ("http/x:1", "unknown protocol"),
+        ("tcp/", "expected PROTOCOL/ADDRESS"),
+        ("tcp/a b:1", "expected HOST:PORT"),
+    ],
+)
+def test_bad_endpoints_name_the_key_and_the_rule(endpoint: str, what: str) -> None:
+    with pytest.raises(ConfigError) as err:
+        parse_config({"zenoh": {"connect": ["tcp/127.0.0.1:7447", endpoint]}})
+    assert f"zenoh.connect[1]: {endpoint!r}: {what}" in str(err.value)
+
+
+def test_port_zero_may_be_listened_on() -> None:
+    assert parse_config({"zenoh": {"listen": ["tcp/127.0.0.1:0"]}}).zenoh.listen
+
+
+def test_every_problem_is_reported_at_once(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.toml"
+    bad.write_text(
+        '[site]\nid = "a b"\n[recording]\nrotate_s = -1\nbogus = 1\n'
+        "[detector.decision]\npi_rain = 'x'\nmin_blobs = 1.5\n"
+        '[[camera]]\nid = "c"\nsource = "demo:"\n[camera.detector.decision]\npi_rain = 2.0\n'
+    )
+    with pytest.raises(ConfigErrors) as err:
+        load_config(bad)
+    lines = err.value.errors
+    keys = [line.split(": ")[1] for line in lines]
+    assert keys == [
+        "site.id",
+        "recording.rotate_s",
+        "recording.bogus",
+        "detector.decision.pi_rain",
+        "detector.decision.min_blobs",
+    ], lines
+    assert all(line.startswith(f"{bad}: ") for line in lines)
+    assert str(err.value) == "; ".join(lines)
+
+
+def test_booleans_and_strings_are_not_numbers() -> None:
+    with pytest.raises(ConfigError, match=r"recording\.rotate_s: Input should be a valid number"):
+        parse_config({"recording": {"rotate_s": True}})
+    with pytest.raises(ConfigError, match=r"publish\.state_interval_s"):
+        parse_config({"publish": {"state_interval_s": "1"}})
+    assert parse_config({"recording": {"rotate_s": 60}}).recording.rotate_s == 60.0
+
+
+def test_a_flood_of_problems_is_cut_to_twenty_lines() -> None:
+    with pytest.raises(ConfigErrors) as err:
+        parse_config({f"k{i}": i for i in range(50)})
+    assert len(err.value.errors) == 20
+    assert err.value.errors[-1] == "... and 31 more problems"
