@@ -33,6 +33,10 @@ __all__ = [
     "validated_config",
 ]
 
+#: The configuration of ``run`` and ``check-config`` without a file: the demo camera (no camera
+#: configured), listening on loopback where ``weatherd watch`` and ``get`` connect by default.
+BUILT_IN = {"zenoh": {"listen": ["tcp/127.0.0.1:7447"]}}
+
 EXIT_OK, EXIT_INTERNAL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 #: An output or device failed (disk full, I/O error...): sysexits' EX_IOERR.
 EXIT_IO = 74
@@ -100,7 +104,8 @@ def validated_config(path: str | None) -> Config:
     )
     from daemon.service.app import check_paths
 
-    config = load_config(path) if path is not None else parse_config({})
+    # Without a file: the demo, listening where `weatherd watch` looks by default.
+    config = load_config(path) if path is not None else parse_config(BUILT_IN)
     errors: list[str] = []
     try:
         check_paths(config)

@@ -51,8 +51,6 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         help="TOML configuration file (see config/weatherd.toml). Without it: site 'demo', "
         "the built-in demo camera (a synthetic street, rain and snow in turn), MCAP "
         "recordings under ./recordings ($STATE_DIRECTORY/recordings under systemd), and Zenoh "
-        "in peer mode with no fixed listen endpoint, which 'weatherd watch' cannot find: to "
-        "watch the demo, run with --config config/weatherd.toml (it listens on "
-        "tcp/127.0.0.1:7447)",
+        "in peer mode listening on tcp/127.0.0.1:7447, where 'weatherd watch' looks",
     )
     run.set_defaults(handler=_run)

@@ -243,3 +243,12 @@ def test_a_flood_of_problems_is_cut_to_twenty_lines() -> None:
         parse_config({f"k{i}": i for i in range(50)})
     assert len(err.value.errors) == 20
     assert err.value.errors[-1] == "... and 31 more problems"
+
+
+def test_run_without_a_file_listens_where_watch_looks(tmp_path, monkeypatch):
+    """`weatherd run` alone must be reachable by `weatherd watch` alone."""
+    from daemon.cli.common import validated_config
+    from daemon.cli.zenoh_options import DEFAULT_CONNECT
+
+    monkeypatch.chdir(tmp_path)  # the default recordings and state folders are made here
+    assert validated_config(None).zenoh.listen == [DEFAULT_CONNECT]
