@@ -6,6 +6,7 @@ import argparse
 import faulthandler
 import logging
 import signal
+import threading
 
 from .common import StopOnSignals, validated_config
 
@@ -31,6 +32,12 @@ def _run(args: argparse.Namespace) -> int:
         status = Daemon(config, stop=stop.event).run()
     finally:
         stop.restore()
+    # Every thread must be gone before the interpreter finalises: a thread still inside
+    # native code then (OpenCV, FFmpeg, Zenoh) is unwound by force when it next takes the GIL,
+    # and C++ that catches the unwinding aborts the process ("FATAL: exception not rethrown").
+    left = [t.name for t in threading.enumerate() if t is not threading.main_thread()]
+    if left:
+        log.warning("threads still running at exit: %s", ", ".join(sorted(left)))
     if stop.signum is not None:
         log.info("%s received; exited cleanly", signal.Signals(stop.signum).name)
     return status

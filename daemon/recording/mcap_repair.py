@@ -31,7 +31,7 @@ from mcap.writer import Writer
 
 from drivers.errors import InputError
 
-from .recorder import _CORRUPT, _MAX_CHUNK_BYTES, LIBRARY, MCAP_MAGIC, _compression
+from .mcap_file import _CORRUPT, _MAX_CHUNK_BYTES, LIBRARY, MCAP_MAGIC, _compression
 
 __all__ = ["RecoverResult", "recover", "recover_directory"]
 

@@ -19,9 +19,10 @@ Disk budget
     being written is never deleted.
 Full disk
     an ``OSError`` while writing never leaves :meth:`Recorder.write`: the current file is
-    abandoned as a ``.part`` (repaired at the next start-up by ``daemon.recording.mcap_repair``, or
-    deleted first by the budget), messages are dropped and counted, a new file is tried every
-    ``retry_interval_s`` after a budget cleanup, and one log line marks each end of the episode.
+    abandoned as a ``.part`` (repaired in the background as soon as recording resumes, else at
+    the next start-up, by :mod:`.mcap_repair`; or deleted first by the budget), messages are
+    dropped and counted, a new file is tried every ``retry_interval_s`` after a budget
+    cleanup, and one log line marks each end of the episode.
 Crash safety
     ``mcap.writer.Writer`` keeps the open chunk in memory. Every ``flush_interval_s`` the chunk is
     finished and the file object flushed to the OS (``Writer.flush``, public since mcap 1.6,
@@ -68,6 +69,7 @@ from .mcap_json import (
 )
 
 # Looked up here by the Recorder, so that the tests can replace them on daemon.recording.recorder.
+from .mcap_repair import recover_directory
 from .recording_files import _SITE_RE, _free_bytes, _fsync_directory, _open_stream, _recordings
 
 __all__ = [
@@ -181,11 +183,13 @@ class Recorder:
         self._last_budget_ns = clock()
         self._budget_due = False
         self._budget_short = False
+        self._repair_due = False
+        self._repair_thread: threading.Thread | None = None
         self._failing = False
         self._last_retry_ns = 0
         self._abandoned: list[Path] = []
         self._closed = False
-        self._messages = self._dropped = self._files_deleted = 0
+        self._messages = self._dropped = self._files_deleted = self._files_repaired = 0
 
     # ----------------------------------------------------------------- public API
 
@@ -231,12 +235,15 @@ class Recorder:
                     self._finish()
                 except OSError as exc:
                     self._fail(exc, self._clock())
+        if self._repair_thread is not None:  # no thread of ours outlives the recorder
+            self._repair_thread.join()
 
     def stats(self) -> dict:
         """Counters for the health report.
 
         ``file`` (the ``.part`` being written or ``None``), ``file_bytes``, ``messages`` (written),
-        ``dropped``, ``files_deleted``, ``free_bytes`` (filesystem), ``total_bytes`` (recordings
+        ``dropped``, ``files_deleted``, ``files_repaired`` (abandoned after a write error, then
+        repaired once recording resumed), ``free_bytes`` (filesystem), ``total_bytes`` (recordings
         of the directory).
         """
         with self._locked():
@@ -250,6 +257,7 @@ class Recorder:
                 "messages": self._messages,
                 "dropped": self._dropped,
                 "files_deleted": self._files_deleted,
+                "files_repaired": self._files_repaired,
             }
         try:
             stats["free_bytes"] = _free_bytes(self.directory)
@@ -315,6 +323,7 @@ class Recorder:
         self._file_messages += 1
         if self._failing:
             self._failing = False
+            self._repair_due = True  # the files abandoned in the episode, now there is room
             self._log(
                 logging.WARNING,
                 "recording resumed in %s (%d messages dropped so far)",
@@ -437,6 +446,29 @@ class Recorder:
             with self._lock:
                 current, abandoned = self._path, set(self._abandoned)
             self._enforce_budget(current, abandoned)
+        self._start_repair()
+
+    def _start_repair(self) -> None:
+        """Once recording has resumed after a failure, repair the files it abandoned, in a
+        thread of its own (a large file takes a while: about 5 MB/s), one repair at a time."""
+        with self._lock:
+            running = self._repair_thread is not None and self._repair_thread.is_alive()
+            if not self._repair_due or self._failing or self._closed or running:
+                return
+            self._repair_due = False
+            parts = [p for p in self._abandoned if p.exists()]
+            if not parts:
+                return
+            self._repair_thread = threading.Thread(
+                target=self._repair, args=(parts,), name="mcap repair (resumed)"
+            )
+            self._repair_thread.start()
+
+    def _repair(self, parts: list[Path]) -> None:
+        results = recover_directory(self.directory, parts=parts)  # logs each file
+        with self._lock:
+            self._abandoned = [p for p in self._abandoned if p.exists()]
+            self._files_repaired += sum(r.dst is not None for r in results)
 
     def _enforce_budget(self, current: Path | None, abandoned: set[Path]) -> None:
         """Delete this site's oldest finished (or abandoned) files until the budget holds.
