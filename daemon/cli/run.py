@@ -3,10 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import faulthandler
 import logging
+import os
 import signal
+import sys
 import threading
+from typing import NoReturn
 
 from .common import StopOnSignals, validated_config
 
@@ -15,7 +19,7 @@ __all__ = ["register"]
 log = logging.getLogger(__name__)
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(args: argparse.Namespace) -> NoReturn:
     """``weatherd run``: the service, until SIGINT or SIGTERM (a second one forces the exit).
 
     Exit statuses: 0 after a signal, 2 for a configuration error (systemd does not restart on
@@ -32,15 +36,28 @@ def _run(args: argparse.Namespace) -> int:
         status = Daemon(config, stop=stop.event).run()
     finally:
         stop.restore()
-    # Every thread must be gone before the interpreter finalises: a thread still inside
-    # native code then (OpenCV, FFmpeg, Zenoh) is unwound by force when it next takes the GIL,
-    # and C++ that catches the unwinding aborts the process ("FATAL: exception not rethrown").
+    # Every thread of ours is joined by now. Native threads are not ours to join: Zenoh's
+    # runtime keeps its own, and they may still drop a Python callback (taking the GIL) while
+    # the interpreter finalises; Python then unwinds them by force, and native code that
+    # catches the unwinding aborts the process ("FATAL: exception not rethrown", status 134:
+    # a failure, a restart and a core dump under systemd at every planned stop). So, with
+    # every file closed and every session ended, the process leaves without finalising.
     left = [t.name for t in threading.enumerate() if t is not threading.main_thread()]
     if left:
         log.warning("threads still running at exit: %s", ", ".join(sorted(left)))
     if stop.signum is not None:
         log.info("%s received; exited cleanly", signal.Signals(stop.signum).name)
-    return status
+    exit_now(status)
+
+
+def exit_now(status: int) -> NoReturn:
+    """End the process with ``status`` at once, after flushing the logs and standard streams,
+    without the interpreter's finalisation (see the end of :func:`_run`)."""
+    logging.shutdown()
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    os._exit(status)
 
 
 def register(commands: argparse._SubParsersAction, parents: list[argparse.ArgumentParser]) -> None:
