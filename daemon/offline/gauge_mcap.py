@@ -27,7 +27,7 @@ from datetime import UTC, datetime, timedelta
 from itertools import pairwise
 from typing import IO
 
-from mcap.exceptions import McapError
+from mcap.exceptions import InvalidMagic, McapError
 from mcap.reader import make_reader
 
 from daemon.offline.reference_common import Interval, ReadContext
@@ -56,9 +56,11 @@ def read_gauge_mcap(binary: IO[bytes], ctx: ReadContext) -> list[Interval]:
 
 
 def _readings(binary: IO[bytes], ctx: ReadContext) -> dict[str, list[_Reading]]:
-    reader = make_reader(binary)
     try:
+        reader = make_reader(binary)
         summary = reader.get_summary()
+    except InvalidMagic:
+        raise ctx.error("not an MCAP file (it does not start with the MCAP magic)") from None
     except (McapError, ValueError, EOFError, OSError) as err:
         raise ctx.error(f"not a readable MCAP file ({err}); try weatherd recover") from err
     topics = None

@@ -88,6 +88,8 @@ def read_obs_json(binary: IO[bytes], ctx: ReadContext) -> list[Interval]:
         data = json.loads(text)
     except json.JSONDecodeError as err:
         raise ctx.error(f"invalid JSON: {err.msg}", err.lineno) from err
+    except RecursionError:  # arrays in arrays, thousands deep: no observation file is
+        raise ctx.error("invalid JSON: nested too deeply") from None
     if isinstance(data, dict):
         data = [data]
     if not isinstance(data, list) or not any(

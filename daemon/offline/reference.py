@@ -74,6 +74,7 @@ from daemon.offline.reference_common import (
     Interval,
     ReadContext,
     ReadStats,
+    corrupt_stream_is_input_error,
     finish,
     iter_lines,
     open_binary,
@@ -191,7 +192,7 @@ def load_reference(
         fmt = detect_format(path)
     elif fmt not in FORMATS:
         raise InputError(f"{name}: unknown format {fmt!r} (one of {', '.join(FORMATS)})")
-    with open_binary(path, name) as binary:
+    with open_binary(path, name) as binary, corrupt_stream_is_input_error(name):
         if fmt in _BINARY_READERS:
             intervals = _BINARY_READERS[fmt](binary, ctx)
         else:
@@ -213,7 +214,7 @@ def detect_format(path: str | PathLike[str]) -> str:
     path = Path(path)
     name = str(path)
     ctx = ReadContext(name=name)
-    with open_binary(path, name) as binary:
+    with open_binary(path, name) as binary, corrupt_stream_is_input_error(name):
         if binary.read(len(MCAP_MAGIC)) == MCAP_MAGIC:
             return "mcap-gauge"
         binary.seek(0)

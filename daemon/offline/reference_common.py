@@ -197,6 +197,16 @@ def compact_stamp(text: str, ctx: ReadContext) -> datetime:
 
 
 @contextmanager
+def corrupt_stream_is_input_error(name: str) -> Iterator[None]:
+    """A gzip stream damaged before any line could be read, as an InputError naming the file
+    (:func:`iter_lines` keeps the lines before damage further on)."""
+    try:
+        yield
+    except (EOFError, zlib.error, gzip.BadGzipFile) as err:
+        raise InputError(f"{name}: corrupt compressed data ({err})") from None
+
+
+@contextmanager
 def open_binary(path: Path, name: str) -> Iterator[IO[bytes]]:
     """``path`` opened for reading bytes, transparently gunzipped when it starts like gzip."""
     try:
