@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import os
 import re
+import shutil
 import signal
 import socket
 import subprocess
@@ -89,11 +90,14 @@ def _port_open(port: int) -> bool:
         return False
 
 
-def _run_daemon(tmp_path: Path, port: int, zenoh_file: Path | None) -> subprocess.Popen:
+def _run_daemon(
+    tmp_path: Path, port: int, zenoh_file: Path | None, *, scheme: str = "tcp"
+) -> subprocess.Popen:
     config = tmp_path / "weatherd.toml"
+    host = "localhost" if scheme == "tls" else "127.0.0.1"  # a TLS name the certificate holds
     config.write_text(
         f'[site]\nid = "{SITE}"\nstate_dir = "{tmp_path / "state"}"\n'
-        f'[zenoh]\nlisten = ["tcp/127.0.0.1:{port}"]\n'
+        f'[zenoh]\nlisten = ["{scheme}/{host}:{port}"]\n'
         + (f'config_file = "{zenoh_file}"\n' if zenoh_file else "")
         + "[recording]\nenabled = false\n[publish]\nstate_interval_s = 0.5\n"
     )
@@ -171,3 +175,97 @@ def test_without_the_hardened_file_the_attack_works(tmp_path):
     forged = [p for k, p in out["samples"] if '"rain_rate_mm_h": 999' in p]
     assert forged, "the forged state did not reach the subscriber: the control shows nothing"
     assert any("999" in p for p in out["get"])
+
+
+TLS_CLIENTS = r"""
+import json, sys, zenoh, time
+
+endpoint, certs = sys.argv[1], sys.argv[2]
+
+def conf(cert):
+    c = zenoh.Config()
+    c.insert_json5("mode", '"client"')
+    c.insert_json5("scouting/multicast/enabled", "false")
+    c.insert_json5("connect/endpoints", json.dumps([endpoint]))
+    c.insert_json5("transport/auth/usrpwd/user", '"reader"')
+    c.insert_json5("transport/auth/usrpwd/password", '"reader-pw"')
+    tls = {"root_ca_certificate": certs + "/ca.pem"}
+    if cert:
+        tls["enable_mtls"] = True  # present the certificate below
+        tls["connect_certificate"] = f"{certs}/{cert}.pem"
+        tls["connect_private_key"] = f"{certs}/{cert}.key"
+    c.insert_json5("transport/link/tls", json.dumps(tls))
+    return c
+
+out = {}
+reader = zenoh.open(conf("reader"))
+got = []
+sub = reader.declare_subscriber("weather/**", lambda s: got.append(str(s.key_expr)))
+time.sleep(2.0)
+out["reader"] = got
+try:
+    zenoh.open(conf(None)).close()
+    out["without_certificate"] = "connected"
+except zenoh.ZError as exc:
+    out["without_certificate"] = "refused: " + str(exc)
+reader.close()
+print(json.dumps(out))
+"""
+
+
+def _certificates(folder: Path) -> None:
+    """A throwaway CA, and certificates for the daemon (localhost) and a reader."""
+    folder.mkdir()
+    key = ["-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256", "-nodes"]
+
+    def openssl(*args: str) -> None:
+        subprocess.run(["openssl", *args], cwd=folder, check=True, capture_output=True)
+
+    openssl("req", "-x509", *key, "-keyout", "ca.key", "-out", "ca.pem", "-days", "2",
+            "-subj", "/CN=weatherd test CA")  # fmt: skip
+    for name in ("daemon", "reader"):
+        openssl("req", *key, "-keyout", f"{name}.key", "-out", f"{name}.csr",
+                "-subj", f"/CN={name}")  # fmt: skip
+        (folder / f"{name}.ext").write_text("subjectAltName=DNS:localhost,IP:127.0.0.1\n")
+        openssl("x509", "-req", "-in", f"{name}.csr", "-CA", "ca.pem", "-CAkey", "ca.key",
+                "-CAcreateserial", "-out", f"{name}.pem", "-days", "2",
+                "-extfile", f"{name}.ext")  # fmt: skip
+
+
+def _with_tls(path: Path, certs: Path) -> None:
+    """The shipped file with its commented TLS block switched on, pointing at ``certs``."""
+    out, inside = [], False
+    for line in path.read_text().splitlines():
+        if line == "    // link: {":
+            inside = True
+        if inside:
+            line = line.replace("// ", "", 1)
+            inside = line != "    },"  # the block's own closing line
+        out.append(line)
+    text = "\n".join(out).replace("/etc/weatherd/tls", str(certs))
+    path.write_text(
+        text.replace("weatherd.pem", "daemon.pem").replace("weatherd.key", "daemon.key")
+    )
+
+
+@pytest.mark.skipif(shutil.which("openssl") is None, reason="openssl makes the test certificates")
+def test_mutual_tls_refuses_a_client_without_a_certificate(tmp_path):
+    certs = tmp_path / "tls"
+    _certificates(certs)
+    secure = _hardened_file(tmp_path)
+    _with_tls(secure, certs)
+    port = free_port()
+    proc = _run_daemon(tmp_path, port, secure, scheme="tls")
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", TLS_CLIENTS, f"tls/localhost:{port}", str(certs)],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    finally:
+        _stop(proc, tmp_path)
+    assert done.returncode == 0, done.stderr[-2000:]
+    out = json.loads(done.stdout.strip().splitlines()[-1])
+    assert f"weather/{SITE}/state" in out["reader"]  # a reader with a certificate reads
+    assert out["without_certificate"].startswith("refused"), out
