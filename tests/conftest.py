@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -31,3 +33,32 @@ def run_weatherd(*args: object, timeout: float = 120) -> subprocess.CompletedPro
         text=True,
         timeout=timeout,
     )
+
+
+def run_python(code: str, **env: str) -> str:
+    """What ``python -c CODE`` prints, in a fresh interpreter of this checkout with ``env``
+    added to the environment (for what a process imports or sets up at start)."""
+    return subprocess.run(
+        [sys.executable, "-c", code],
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO), **env},
+        capture_output=True,
+        text=True,
+        check=True,
+    ).stdout
+
+
+@contextlib.contextmanager
+def tmpfs(mount: Path, size: str) -> Iterator[Path]:
+    """A tmpfs of ``size`` (``64k``, ``4m``) mounted at ``mount`` (made if missing), unmounted
+    afterwards; the test is skipped where it cannot be mounted (root is needed)."""
+    mount.mkdir(exist_ok=True)
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(mount)], capture_output=True
+    )
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode(errors='replace').strip()}")
+    try:
+        yield mount
+    finally:
+        subprocess.run(["umount", "-l", str(mount)], check=False)

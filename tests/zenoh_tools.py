@@ -32,6 +32,7 @@ __all__ = [
     "SubscriberProcess",
     "client_config",
     "free_port",
+    "port_open",
     "query",
 ]
 
@@ -57,7 +58,8 @@ def client_config(endpoint: str) -> Any:
     return config
 
 
-def _port_open(port: int) -> bool:
+def port_open(port: int) -> bool:
+    """Whether something accepts TCP connections on 127.0.0.1:``port``."""
     try:
         with socket.create_connection(("127.0.0.1", port), timeout=0.2):
             return True
@@ -146,7 +148,7 @@ class RouterProcess(_ChildProcess):
         """Spawn the router and wait until its port accepts TCP connections."""
         self._spawn()
         deadline = time.monotonic() + self._start_timeout_s
-        while not _port_open(self.port):
+        while not port_open(self.port):
             if self.proc is None or self.proc.poll() is not None:
                 self._fail(f"router on port {self.port} exited at start")
             if time.monotonic() > deadline:

@@ -2,9 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import cv2
@@ -18,6 +15,7 @@ from drivers.simulator import Scene, SceneParams, StreakParams
 from hos import HosDetector, _jit
 from hos.background import mask_to_index, photometric_rule
 from hos.blobs import CandidateRate, blob_mean_rate, find_blobs, find_blobs_sparse
+from tests.conftest import run_python
 
 REPO = Path(__file__).resolve().parents[2]
 needs_jit = pytest.mark.skipif(not _jit.ENABLED, reason=f"no JIT: {_jit.why_disabled()}")
@@ -167,15 +165,7 @@ def test_hos_jit_0_turns_the_kernels_off():
         "r = [d.process(z, i / 25) for i in range(3)];"
         "print(_jit.ENABLED, d.compiled, _jit.why_disabled())"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=REPO,
-        env={**os.environ, "HOS_JIT": "0", "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout
-    assert out.split() == ["False", "False", "HOS_JIT=0"]
+    assert run_python(code, HOS_JIT="0").split() == ["False", "False", "HOS_JIT=0"]
 
 
 @needs_jit

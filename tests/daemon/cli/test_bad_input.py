@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from tests.conftest import REPO, run_weatherd
+from tests.conftest import REPO, run_weatherd, tmpfs
 
 DEMO_TO_STDOUT = ("detect", "demo:", "--frames", "3", "--jsonl", "-")
 
@@ -131,17 +131,8 @@ def test_recover_into_a_missing_folder_is_a_clean_error(good_mcap: Path, tmp_pat
 @pytest.fixture
 def tiny_disk(tmp_path: Path):
     """A 64-KiB tmpfs (root only; skipped where it cannot be mounted)."""
-    mount = tmp_path / "tiny"
-    mount.mkdir()
-    done = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(mount)], capture_output=True
-    )
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode(errors='replace').strip()}")
-    try:
+    with tmpfs(tmp_path / "tiny", "64k") as mount:
         yield mount
-    finally:
-        subprocess.run(["umount", str(mount)], check=False)
 
 
 @pytest.mark.parametrize("output", ["--jsonl", "--overlay"])

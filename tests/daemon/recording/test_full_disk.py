@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
-from tests.conftest import REPO
+from tests.conftest import REPO, tmpfs
 
 pytestmark = pytest.mark.e2e
 
@@ -39,19 +39,8 @@ status_interval_s = 1.0
 @pytest.fixture
 def small_disk(tmp_path: Path):
     """A 4 MiB tmpfs, unmounted afterwards (root can mount one on these machines)."""
-    mount = tmp_path / "disk"
-    mount.mkdir()
-    if os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root")
-    done = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=4m", "tmpfs", str(mount)], capture_output=True
-    )
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.decode().strip()}")
-    try:
+    with tmpfs(tmp_path / "disk", "4m") as mount:
         yield mount
-    finally:
-        subprocess.run(["umount", "-l", str(mount)], check=False)
 
 
 def _free(path: Path) -> int:

@@ -4,9 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +11,7 @@ import pytest
 
 from daemon.service.calibration import CalibrationParams, OnlineCalibration, load_calibration_file
 from drivers.errors import ConfigError
-from tests.conftest import REPO
+from tests.conftest import run_python
 
 W = 60.0  # window, seconds
 T0 = 1_700_000_000 * 10**9
@@ -162,12 +159,4 @@ def test_the_daemon_does_not_import_filterpy_or_scipy_stats():
         "import sys, daemon.service.app, daemon.service.calibration; "
         "print(sorted(m for m in ('filterpy', 'scipy.stats') if m in sys.modules))"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", code],
-        cwd=REPO,
-        env={**os.environ, "HOS_JIT": "0", "PYTHONPATH": str(REPO)},
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout.strip()
-    assert out == "[]"
+    assert run_python(code, HOS_JIT="0").strip() == "[]"

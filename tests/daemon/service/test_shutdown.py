@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import os
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -21,7 +20,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import REPO
-from tests.zenoh_tools import SubscriberProcess, free_port
+from tests.zenoh_tools import SubscriberProcess, free_port, port_open
 
 from .test_e2e_instruments import SimulatedPwd
 
@@ -40,14 +39,6 @@ RUNS = [
     (3.0, signal.SIGINT, True, True, False),
     (0.5, signal.SIGINT, False, False, False),
 ]
-
-
-def _listening(port: int) -> bool:
-    try:
-        with socket.create_connection(("127.0.0.1", port), timeout=0.2):
-            return True
-    except OSError:
-        return False
 
 
 def _config(tmp: Path, port: int, instrument: bool) -> Path:
@@ -85,7 +76,7 @@ def test_every_stop_is_clean(tmp_path, seconds, sig, subscriber, instrument, jit
         )
     try:
         deadline = time.monotonic() + 30
-        while not _listening(port):
+        while not port_open(port):
             assert proc.poll() is None, log.read_text()
             assert time.monotonic() < deadline, "the daemon does not listen"
             time.sleep(0.05)

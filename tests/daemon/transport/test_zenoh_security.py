@@ -16,7 +16,6 @@ import os
 import re
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -25,7 +24,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import REPO
-from tests.zenoh_tools import free_port
+from tests.zenoh_tools import free_port, port_open
 
 pytestmark = pytest.mark.e2e
 
@@ -82,14 +81,6 @@ print(json.dumps(out))
 """.replace("SITE", SITE)
 
 
-def _port_open(port: int) -> bool:
-    try:
-        with socket.create_connection(("127.0.0.1", port), timeout=0.2):
-            return True
-    except OSError:
-        return False
-
-
 def _run_daemon(
     tmp_path: Path, port: int, zenoh_file: Path | None, *, scheme: str = "tcp"
 ) -> subprocess.Popen:
@@ -109,7 +100,7 @@ def _run_daemon(
         stderr=open(tmp_path / "run.log", "w"),
     )
     deadline = time.monotonic() + 20
-    while not _port_open(port):
+    while not port_open(port):
         assert proc.poll() is None, (tmp_path / "run.log").read_text()
         assert time.monotonic() < deadline, "the daemon does not listen"
         time.sleep(0.1)
