@@ -244,8 +244,17 @@ class InstrumentView:
 
 
 # WMO code table 4680 (present weather from an automatic station), the parts fusion needs.
+#: The precipitation type of each WMO 4680 (``wawa``, automatic station) code that reports
+#: precipitation at the time of observation; every other code is no precipitation now: 00-39
+#: (no weather, haze, mist, lightning, squalls, fog, and 20-29, precipitation or fog during the
+#: past hour but not now), 49, 59, 69 and 79 (not used), 90 (a thunderstorm: of itself no
+#: precipitation), 91 and 94 (thunderstorm with no precipitation), 97-99. Each code is tested
+#: against this list in tests/daemon/service/test_fusion.py.
 _WAWA_TYPES: tuple[tuple[range, str], ...] = (
-    (range(40, 43), "unknown"),  # precipitation (slight/moderate, heavy)
+    (range(40, 43), "unknown"),  # precipitation; slight or moderate; heavy
+    (range(43, 45), "rain"),  # liquid precipitation, slight or moderate / heavy
+    (range(45, 47), "snow"),  # solid precipitation, slight or moderate / heavy
+    (range(47, 49), "rain"),  # freezing precipitation (liquid, freezing on impact)
     (range(50, 57), "drizzle"),  # drizzle, freezing drizzle
     (range(57, 59), "mixed"),  # drizzle and rain
     (range(60, 67), "rain"),  # rain, freezing rain
@@ -254,13 +263,15 @@ _WAWA_TYPES: tuple[tuple[range, str], ...] = (
     (range(74, 77), "ice_pellets"),
     (range(77, 79), "snow"),  # snow grains, ice crystals
     (range(80, 81), "unknown"),  # showers or intermittent precipitation
-    (range(81, 85), "rain"),  # rain showers
+    (range(81, 85), "rain"),  # rain showers, slight to violent
     (range(85, 88), "snow"),  # snow showers
-    (range(89, 90), "hail"),
-    (range(92, 93), "mixed"),  # thunderstorm with rain and/or snow showers
-    (range(93, 94), "hail"),
-    (range(95, 96), "mixed"),
-    (range(96, 97), "hail"),
+    # 88 is "not used" in the WMO table, but OTT's Parsivel reports soft hail (graupel) with
+    # it (42 mm/h of graupel in a real capture): ice falling is precipitation, here "hail".
+    (range(88, 90), "hail"),  # 89: hail
+    (range(92, 93), "mixed"),  # thunderstorm, slight or moderate, with rain and/or snow showers
+    (range(93, 94), "hail"),  # thunderstorm, slight or moderate, with hail
+    (range(95, 96), "mixed"),  # thunderstorm, heavy, with rain and/or snow showers
+    (range(96, 97), "hail"),  # thunderstorm, heavy, with hail
 )
 
 

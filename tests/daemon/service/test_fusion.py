@@ -9,7 +9,15 @@ import jsonschema
 import numpy as np
 import pytest
 
-from daemon.service.fusion import OFFLINE, CameraView, CameraWindow, InstrumentView, fuse, wawa_type
+from daemon.service.fusion import (
+    OFFLINE,
+    CameraView,
+    CameraWindow,
+    InstrumentView,
+    fuse,
+    wawa_precipitation,
+    wawa_type,
+)
 from daemon.transport.messages import SCHEMAS, frame_message, histogram_message, iso_utc, schema_for
 from hos.result import FrameResult, MixtureFit
 from tests.conftest import REPO
@@ -205,22 +213,42 @@ def test_calibrated_camera_rate_when_no_instrument() -> None:
     assert (state["wawa"], state["metar"]) == (41, "UP")
 
 
-@pytest.mark.parametrize(
-    ("wawa", "kind"),
-    [
-        (0, None),
-        (10, None),
-        (41, "unknown"),
-        (51, "drizzle"),
-        (63, "rain"),
-        (68, "mixed"),
-        (73, "snow"),
-        (75, "ice_pellets"),
-        (81, "rain"),
-        (86, "snow"),
-        (89, "hail"),
-        (91, None),
-    ],
-)
+#: Every WMO 4680 code, as the table states it: the type of precipitation falling now, or None.
+WMO_4680 = {
+    **dict.fromkeys(range(0, 40), None),  # no precipitation now (20-29: in the past hour)
+    40: "unknown", 41: "unknown", 42: "unknown",  # precipitation (slight/moderate, heavy)
+    43: "rain", 44: "rain",  # liquid precipitation
+    45: "snow", 46: "snow",  # solid precipitation
+    47: "rain", 48: "rain",  # freezing precipitation
+    49: None,  # not used
+    **dict.fromkeys(range(50, 57), "drizzle"),  # drizzle, freezing drizzle
+    57: "mixed", 58: "mixed",  # drizzle and rain
+    59: None,
+    **dict.fromkeys(range(60, 67), "rain"),  # rain, freezing rain
+    67: "mixed", 68: "mixed",  # rain or drizzle and snow
+    69: None,
+    70: "snow", 71: "snow", 72: "snow", 73: "snow",
+    74: "ice_pellets", 75: "ice_pellets", 76: "ice_pellets",
+    77: "snow", 78: "snow",  # snow grains, ice crystals
+    79: None,
+    80: "unknown",  # showers or intermittent precipitation
+    81: "rain", 82: "rain", 83: "rain", 84: "rain",  # rain showers
+    85: "snow", 86: "snow", 87: "snow",  # snow showers
+    88: "hail",  # not used by WMO; OTT Parsivel: soft hail (graupel)
+    89: "hail",
+    90: None, 91: None,  # thunderstorm; with no precipitation
+    92: "mixed", 93: "hail",  # thunderstorm with showers; with hail
+    94: None,  # heavy thunderstorm with no precipitation
+    95: "mixed", 96: "hail",
+    97: None, 98: None, 99: None,  # not used; tornado
+}  # fmt: skip
+
+
+def test_the_table_covers_every_code():
+    assert sorted(WMO_4680) == list(range(100))
+
+
+@pytest.mark.parametrize(("wawa", "kind"), sorted(WMO_4680.items()))
 def test_wawa_types(wawa: int, kind: str | None) -> None:
     assert wawa_type(wawa) == kind
+    assert wawa_precipitation(wawa) is (kind is not None)
