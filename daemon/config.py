@@ -341,6 +341,16 @@ class PublishConfig(_Strict):
     status_interval_s: Annotated[float, Field(ge=0.1, le=3600)] = 10.0
 
 
+class FusionConfig(_Strict):
+    """``[fusion]``: how long the site's precipitation must be seen before it starts, and not
+    seen before it stops (docs/daemon.md, "The site state does not flicker")."""
+
+    #: Seconds of precipitation seen (by any source that can judge) before the site says so.
+    onset_s: Annotated[float, Field(ge=0, le=3600)] = 10.0
+    #: Seconds of none seen before the site says it stopped.
+    end_s: Annotated[float, Field(ge=0, le=3600)] = 60.0
+
+
 class Config(_Strict):
     """The whole file."""
 
@@ -352,6 +362,7 @@ class Config(_Strict):
     zenoh: ZenohConfig = Field(default_factory=ZenohConfig)
     recording: RecordingConfig = Field(default_factory=RecordingConfig)
     publish: PublishConfig = Field(default_factory=PublishConfig)
+    fusion: FusionConfig = Field(default_factory=FusionConfig)
 
     @model_validator(mode="after")
     def _unique_ids(self) -> Config:

@@ -23,6 +23,7 @@ def _replay(args: argparse.Namespace) -> int:
         camera=args.camera,
         params=detector_params({"detector": config.detector}),
         recording=config.recording,
+        fusion=config.fusion,
         start_ns=parse_start(args.start) if args.start else None,
         fps=args.fps,
         progress=not args.no_progress,

@@ -21,11 +21,11 @@ from pathlib import Path
 
 import numpy as np
 
-from daemon.config import RecordingConfig
+from daemon.config import FusionConfig, RecordingConfig
 from daemon.recording.recorder import McapFile
 from daemon.recording.results import ResultRecorder
 from daemon.service.detection import detect_frames
-from daemon.service.fusion import CameraWindow, fuse
+from daemon.service.fusion import CameraWindow, Persistence, fuse
 from daemon.transport.messages import schema_for
 from drivers.errors import InputError
 from drivers.video import Frame, open_video
@@ -74,16 +74,22 @@ def replay(
     camera: str = "replay",
     params: DetectorParams | None = None,
     recording: RecordingConfig | None = None,
+    fusion: FusionConfig | None = None,
     start_ns: int | None = None,
     fps: float | None = None,
     progress: bool = False,
 ) -> ReplaySummary:
     """Run the detector over ``videos`` and write the daemon's MCAP topics to ``out``.
 
+    ``fusion`` (the daemon's defaults when None) makes the recorded site state persistent as
+    the daemon's is.
+
     Raises
     ------
     InputError : a video cannot be read, or ``out`` cannot be written.
     """
+    fusion = fusion or FusionConfig()
+    persistence = Persistence(onset_s=fusion.onset_s, end_s=fusion.end_s)
     params = params or DetectorParams()
     recording = recording or RecordingConfig()
     if fps is not None and not fps > 0:
@@ -129,7 +135,7 @@ def replay(
                         if next_summary is None:
                             next_summary = t_ns + 1_000_000_000
                         if t_ns >= next_summary:
-                            _summaries(mcap, window, site=site, camera=camera, t_ns=t_ns)
+                            _summaries(mcap, window, persistence, site, camera, t_ns)
                             next_summary += 1_000_000_000
                         frames += 1
                         rain += bool(result.rain)
@@ -147,7 +153,14 @@ def replay(
     return ReplaySummary(str(out), len(videos), frames, rain, skipped, first_t, last_t)
 
 
-def _summaries(mcap: McapFile, window: CameraWindow, *, site: str, camera: str, t_ns: int) -> None:
+def _summaries(
+    mcap: McapFile,
+    window: CameraWindow,
+    persistence: Persistence,
+    site: str,
+    camera: str,
+    t_ns: int,
+) -> None:
     summary = window.summary(site=site, t_ns=t_ns, capture_state="ok", window_s=1.0)
     mcap.write(
         f"/hos/{camera}/summary",
@@ -156,7 +169,9 @@ def _summaries(mcap: McapFile, window: CameraWindow, *, site: str, camera: str, 
         summary,
         t_ns=t_ns,
     )
-    state = fuse({camera: window.view()}, site=site, t_ns=t_ns, stale_s=5.0)
+    state = fuse(
+        {camera: window.view()}, site=site, t_ns=t_ns, stale_s=5.0, persistence=persistence
+    )
     mcap.write("/weather/state", "weather.state", schema_for("weather.state"), state, t_ns=t_ns)
 
 

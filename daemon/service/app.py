@@ -57,7 +57,7 @@ from .calibration import CalibrationParams, OnlineCalibration, load_calibration_
 from .capture import CaptureThread
 from .clock import clock_status
 from .detection import detect_frames
-from .fusion import CameraWindow, fuse
+from .fusion import CameraWindow, Persistence, fuse
 from .instruments import InstrumentHub
 
 __all__ = ["DEMO_CAMERA", "CameraPipeline", "Daemon", "versions"]
@@ -303,6 +303,7 @@ class Daemon:
         check_paths(config)
         self.recording_dir = default_recording_dir(config.recording)
         self.calibration = _calibration(config)
+        self.persistence = Persistence(onset_s=config.fusion.onset_s, end_s=config.fusion.end_s)
         self.instruments = InstrumentHub(
             config.instrument, site=self.site, emit=self._emit, calibration=self.calibration
         )
@@ -451,6 +452,7 @@ class Daemon:
                 instruments=self.instruments.views(),
                 camera_rate=self.calibration.rate_mm_h,
                 calibration=self.calibration.quality(t_ns),
+                persistence=self.persistence,
             )
             changed = state["precipitation"] != precipitation
             if changed or now >= due_state:

@@ -354,6 +354,36 @@ def _rate_reason(precipitation: bool | None, camera_rate: Callable | None) -> st
     )
 
 
+class Persistence:
+    """The site's precipitation does not flicker: it starts once it has been seen for
+    ``onset_s`` and stops once none has been seen for ``end_s`` (present-weather practice: a
+    sensor reports over a window, never a 0.4-s shower). Unknown (no source can judge) is said
+    at once; judging again starts from "no precipitation", the onset counted from then.
+
+    One per site, fed each tick with the instantaneous verdict of :func:`fuse`'s sources.
+    """
+
+    def __init__(self, *, onset_s: float = 10.0, end_s: float = 60.0):
+        self.onset_ns, self.end_ns = round(onset_s * 1e9), round(end_s * 1e9)
+        self.state: bool | None = None
+        self._since: int | None = None  # when the instantaneous verdict last differed
+
+    def __call__(self, seen: bool | None, t_ns: int) -> bool | None:
+        if seen is None:
+            self.state, self._since = None, None
+            return None
+        if self.state is None:
+            self.state = False
+        if seen == self.state:
+            self._since = None
+            return self.state
+        if self._since is None:
+            self._since = t_ns
+        if t_ns - self._since >= (self.onset_ns if seen else self.end_ns):
+            self.state, self._since = seen, None
+        return self.state
+
+
 def fuse(
     cameras: dict[str, CameraView],
     *,
@@ -363,8 +393,12 @@ def fuse(
     instruments: dict[str, InstrumentView] | None = None,
     camera_rate: Callable[[float | None], float | None] | None = None,
     calibration: dict[str, Any] | None = None,
+    persistence: Persistence | None = None,
 ) -> dict[str, Any]:
     """``weather.state/1`` from the cameras' and instruments' latest views.
+
+    With ``persistence`` (the daemon's), ``precipitation`` and everything derived from it
+    follow the persistent verdict, and ``precipitation_instant`` is the verdict of this tick.
 
     The rule, in order (docs/daemon.md, "Fusion"):
 
@@ -417,6 +451,10 @@ def fuse(
             disagreement = "cameras see precipitation, the present-weather sensor does not"
         elif not any(cam_votes.values()) and any(inst_votes.values()) and cam_votes:
             disagreement = "instruments report precipitation the cameras do not see"
+
+    instant = precipitation
+    if persistence is not None:
+        precipitation = persistence(instant, t_ns)
 
     # Type: the sensor knows; the camera cannot tell rain from snow.
     kind: str | None = None
@@ -475,6 +513,7 @@ def fuse(
         site=site,
         t_ns=t_ns,
         precipitation=precipitation,
+        precipitation_instant=instant,
         precipitation_type=kind,
         rain_rate_mm_h=None if rate is None else round(rate, 4),
         rain_rate_source=source if rate is not None else None,

@@ -252,3 +252,46 @@ def test_the_table_covers_every_code():
 def test_wawa_types(wawa: int, kind: str | None) -> None:
     assert wawa_type(wawa) == kind
     assert wawa_precipitation(wawa) is (kind is not None)
+
+
+def _feed(persistence, verdicts, dt_s=0.1):
+    """The persistent verdict after each instantaneous one, ``dt_s`` apart."""
+    return [persistence(v, round(i * dt_s * 1e9)) for i, v in enumerate(verdicts)]
+
+
+def test_a_short_blip_never_makes_the_site_wet():
+    from daemon.service.fusion import Persistence
+
+    out = _feed(Persistence(onset_s=10, end_s=60), [False] * 50 + [True] * 5 + [False] * 50)
+    assert not any(out)  # a 0.5-s false verdict (the demo's clear-weather blips)
+
+
+def test_precipitation_starts_after_onset_and_survives_short_gaps():
+    from daemon.service.fusion import Persistence
+
+    rain = [True] * 150 + [False] * 20 + [True] * 300  # 15 s, a 2-s gap, 30 s
+    out = _feed(Persistence(onset_s=10, end_s=60), [False] * 10 + rain + [False] * 700)
+    first = out.index(True)
+    assert first == 10 + 100  # 10 s after the rain was first seen
+    assert all(out[first : 10 + len(rain)])  # the 2-s gap does not end it
+    last = len(out) - 1 - out[::-1].index(True)
+    assert last - (10 + len(rain)) == 600 - 1  # it ends 60 s after the last rain seen
+
+
+def test_unknown_at_once_and_judging_again_starts_dry():
+    from daemon.service.fusion import Persistence
+
+    p = Persistence(onset_s=1, end_s=1)
+    out = _feed(p, [True] * 20 + [None] * 3 + [True] * 5)
+    assert out[19] is True and out[20:23] == [None] * 3
+    assert out[23:] == [False] * 5  # seen again for 0.5 s only: not yet
+
+
+def test_fuse_follows_the_persistent_verdict_and_keeps_the_instant_one():
+    from daemon.service.fusion import Persistence
+
+    p = Persistence(onset_s=10, end_s=60)
+    state = fuse({"c": _view(True)}, site="s", t_ns=T0, persistence=p)
+    assert state["precipitation"] is False and state["precipitation_instant"] is True
+    assert state["rain_rate_mm_h"] == 0.0 and state["precipitation_type"] is None
+    validate(state)
