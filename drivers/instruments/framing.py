@@ -335,3 +335,84 @@ class DelimitedFramer:
             if buf.endswith(delim[:k]):
                 return k
         return 0
+
+
+_PRINTABLE = re.compile(rb"[\x20-\x7e\t]+")
+
+
+class DelimitedOrLineFramer:
+    """``start ... end`` telegrams, or, in a capture whose logger stripped the control
+    characters, one telegram a line; the stream's first bytes decide, for good.
+
+    The first ``start`` byte, unless a whole line that looks like a telegram (printable ASCII
+    holding ``marker``, a field separator, at least ``min_markers`` times) ends before it,
+    makes the stream delimited; such a line before any ``start`` makes it one telegram a line
+    (power-up noise does not look like one). Until either is seen the bytes are held
+    (at most ``max_undecided`` of them, then delimited is taken); at :meth:`flush` an undecided
+    stream is delimited if it holds a ``start`` byte. The decision depends on the bytes only,
+    never on how reads split them.
+    """
+
+    def __init__(
+        self,
+        start: bytes = b"\x02",
+        end: bytes = b"\x03",
+        *,
+        marker: bytes = b";",
+        min_markers: int = 1,
+        flush_partial: bool = False,
+        max_undecided: int = 65536,
+    ) -> None:
+        self._delimited = DelimitedFramer(start, end, flush_partial=flush_partial)
+        self._lines = LineFramer()
+        self._start, self._marker, self._max = bytes(start), bytes(marker), max_undecided
+        self._min_markers = min_markers
+        self._chosen: DelimitedFramer | LineFramer | None = None
+        self._pending = bytearray()
+
+    @property
+    def garbage_bytes(self) -> int:
+        return (self._chosen or self._delimited).garbage_bytes
+
+    @property
+    def one_a_line(self) -> bool:
+        """True once the stream was found to hold one telegram a line."""
+        return self._chosen is self._lines
+
+    def _decide(self, *, final: bool) -> None:
+        buf = self._pending
+        first_start = buf.find(self._start)
+        line_from = 0
+        for match in re.finditer(rb"\r\n|\r|\n", buf):
+            if first_start >= 0 and match.start() > first_start:
+                break
+            line = bytes(buf[line_from : match.start()])
+            if line.count(self._marker) >= self._min_markers and _PRINTABLE.fullmatch(line):
+                self._chosen = self._lines
+                return
+            line_from = match.end()
+        if first_start >= 0:
+            self._chosen = self._delimited
+        elif final:
+            self._chosen = self._lines
+        elif len(buf) > self._max:
+            self._chosen = self._delimited
+
+    def feed(self, data: bytes) -> list[Frame]:
+        """Telegrams completed by ``data``, in order."""
+        if self._chosen is None:
+            self._pending += data
+            self._decide(final=False)
+            if self._chosen is None:
+                return []
+            data, self._pending = bytes(self._pending), bytearray()
+        return self._chosen.feed(data)
+
+    def flush(self) -> list[Frame]:
+        """At the end of a file: what the chosen framer still holds."""
+        frames: list[Frame] = []
+        if self._chosen is None:
+            self._decide(final=True)
+            frames = self._chosen.feed(bytes(self._pending))
+            self._pending.clear()
+        return frames + self._chosen.flush()

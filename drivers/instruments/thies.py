@@ -59,7 +59,7 @@ from typing import Any
 from drivers.errors import ConfigError
 
 from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
-from .framing import DelimitedFramer
+from .framing import DelimitedOrLineFramer
 
 __all__ = ["DRIVER", "check_options", "checksum", "make_framer", "parse", "poll_command"]
 
@@ -132,9 +132,10 @@ def _check_zone(name: Any) -> str:
     return str(name)
 
 
-def make_framer(options: dict[str, Any]) -> DelimitedFramer:
-    """STX…ETX telegrams; a last telegram cut before its ETX is still handed out."""
-    return DelimitedFramer(STX, ETX, flush_partial=True)
+def make_framer(options: dict[str, Any]) -> DelimitedOrLineFramer:
+    """STX…ETX telegrams (a last one cut before its ETX is still handed out), or one telegram
+    a line where a logger stripped STX and ETX: the capture's first bytes tell which."""
+    return DelimitedOrLineFramer(STX, ETX, marker=b";", min_markers=MIN_FIELDS, flush_partial=True)
 
 
 def poll_command(options: dict[str, Any]) -> bytes:
@@ -185,6 +186,8 @@ def _verify(raw: bytes, cs: str, mode: str) -> None:
         checksum(before + after),
         checksum(before + b"\r\n\x03"),
     }
+    if STX not in raw:  # a logger stripped STX: the sensor summed it
+        candidates.add(checksum(STX + before))
     if cs.upper() not in candidates:
         raise ParseError(f"checksum mismatch: telegram says {cs}, computed {checksum(before)}")
 

@@ -202,3 +202,42 @@ def test_poll_command():
 def test_bad_options_name_the_key(options, key):
     with pytest.raises(ConfigError, match=f"^{key}:"):
         thies.check_options(options)
+
+
+@pytest.mark.parametrize("eol", [b"\r\n", b"\n"])
+def test_one_telegram_a_line_without_stx_and_etx(eol):
+    """A logger that strips the control characters writes one telegram a line."""
+    framed = [telegram(), telegram(HEAD.replace("10:31:00", "10:32:00"))]
+    lines = b"".join(t.strip(b"\x02\x03\r\n") + eol for t in framed)
+    whole, garbage = frames_of(lines)
+    assert len(whole) == 2 and garbage == 0
+    rng = random.Random(7)
+    for _ in range(20):
+        chunks = [rng.randint(1, 300) for _ in range(30)]
+        assert frames_of(lines, chunks)[0] == whole
+    for line, stx in zip(whole, framed, strict=True):  # the same readings, checksums included
+        ours, theirs = thies.parse(line, {}).to_json(), thies.parse(Frame(stx), {}).to_json()
+        assert {k: v for k, v in ours.items() if k != "raw"} == {
+            k: v for k, v in theirs.items() if k != "raw"
+        }
+
+
+def test_power_up_noise_with_semicolons_does_not_look_like_a_telegram():
+    stream = b"x;y;\r\n\x7f;;\n" + telegram()
+    whole, _ = frames_of(stream)
+    assert len(whole) == 1 and whole[0].data.startswith(b"\x02")
+
+
+def test_leipzig_capture_with_stx_and_etx_stripped(shared_fixtures, tmp_path):
+    from drivers.instruments import DRIVERS
+    from drivers.instruments.decode import DecodeStats, decode_file
+
+    original = shared_fixtures / "instruments" / "thies-lnm" / "2024041723-leipzig-lim.txt"
+    stripped = tmp_path / "lines.txt"
+    stripped.write_bytes(original.read_bytes().replace(b"\x02", b"").replace(b"\x03", b""))
+    got = {}
+    for path in (original, stripped):
+        stats = DecodeStats()
+        readings = list(decode_file(DRIVERS["thies-lnm"], path, stats=stats))
+        got[path.name] = ([r.to_json()["t"] for r in readings], len(stats.bad))
+    assert got["lines.txt"] == got[original.name] and got["lines.txt"][0]
