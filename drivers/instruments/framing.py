@@ -25,10 +25,12 @@ from .base import Frame
 
 __all__ = [
     "PREFIX_DMY_HMS",
+    "PREFIX_ISO",
     "PREFIX_YMDHMS",
     "DelimitedFramer",
     "LineFramer",
     "PrefixParser",
+    "first_prefix",
     "is_blank",
     "regex_prefix",
 ]
@@ -41,6 +43,13 @@ PREFIX_YMDHMS = (
     rb"(?P<year>\d{4})(?P<month>\d{2})(?P<day>\d{2})"
     rb"(?P<hour>\d{2})(?P<minute>\d{2})(?P<second>\d{2})[;, \t]"
 )
+#: ``[2024-01-14 00:00:00``, ``2024-01-14T00:00:00.250Z;``, ``2019/11/15 10:00:00``: ISO-like
+#: logger stamps, bracketed or not, before a telegram on the same line or alone on a line.
+PREFIX_ISO = (
+    rb"\[?(?P<year>\d{4})[-/](?P<month>\d{2})[-/](?P<day>\d{2})[ T]"
+    rb"(?P<hour>\d{2}):(?P<minute>\d{2})(?::(?P<second>\d{2})(?:[.,](?P<fraction>\d{1,9}))?)?"
+    rb"Z?\]?(?:[;, \t]+|$)"
+)
 #: ``06.04.2004   05:51:21   `` (Vaisala FD12P logger); seconds optional.
 PREFIX_DMY_HMS = (
     rb"\s*(?P<day>\d{2})\.(?P<month>\d{2})\.(?P<year>\d{4})[ \t;]+"
@@ -50,6 +59,19 @@ PREFIX_DMY_HMS = (
 _TERMINATOR = re.compile(rb"[\r\n]")
 _BLANK = re.compile(rb"[\x00-\x20\x7f]*")
 _EPOCH = dt.datetime(1970, 1, 1, tzinfo=dt.UTC)
+
+
+def first_prefix(*parsers: PrefixParser) -> PrefixParser:
+    """A prefix parser trying ``parsers`` in turn: the first that finds a time wins."""
+
+    def parse(line: bytes) -> tuple[int | None, bytes]:
+        for parser in parsers:
+            t_ns, rest = parser(line)
+            if t_ns is not None:
+                return t_ns, rest
+        return None, line
+
+    return parse
 
 
 def is_blank(line: bytes) -> bool:

@@ -48,7 +48,7 @@ from typing import Any
 from drivers.errors import ConfigError
 
 from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
-from .framing import PREFIX_YMDHMS, LineFramer, is_blank
+from .framing import PREFIX_ISO, PREFIX_YMDHMS, LineFramer, first_prefix, is_blank, regex_prefix
 
 __all__ = ["DEFAULT_FIELDS", "DRIVER", "ParsivelFramer", "check_options", "parse"]
 
@@ -103,6 +103,8 @@ _READING_FIELDS = {"rain_rate_mm_h", "rain_accum_mm", "wawa", "metar", "nws_code
 _READING_FIELDS |= {"visibility_m", "temperature_c"}
 _SENTINEL = -9.999
 _KEY_LINE = re.compile(r"(\d{2}):(.*)")
+#: The logger stamps a Parsivel capture may carry, alone on a line or before a telegram.
+_LOGGER_PREFIX = first_prefix(regex_prefix(PREFIX_YMDHMS), regex_prefix(PREFIX_ISO))
 _CONTROL = "".join(map(chr, range(33)))
 
 
@@ -141,13 +143,14 @@ class ParsivelFramer:
 
     def __init__(self, *, logger_prefix: bool = True, max_line_bytes: int = 16384) -> None:
         self._lines = LineFramer(
-            prefix=PREFIX_YMDHMS if logger_prefix else None,
+            prefix=_LOGGER_PREFIX if logger_prefix else None,
             max_line_bytes=max_line_bytes,
             keep_blank=True,
             lstrip=_CONTROL.encode("ascii"),
         )
         self._block: list[Frame] = []
         self._blank_bytes = 0
+        self._stamp: int | None = None  # a logger's stamp alone on a line: the next telegram's
 
     @property
     def garbage_bytes(self) -> int:
@@ -168,15 +171,28 @@ class ParsivelFramer:
             if is_blank(text):
                 self._blank_bytes += len(line.data)
                 self._close_block(frames)
-            elif text.startswith(b"TYP"):
+                if line.t_ns is not None:  # ``[2024-01-14 00:00:00`` alone on its line
+                    self._stamp = line.t_ns
+            elif text.startswith(b"TYP") or (
+                not self._block
+                and self._stamp is not None
+                and _KEY_LINE.match(text.decode("latin-1"))
+            ):  # an answer, with or without its TYP line after a logger's stamp
                 self._close_block(frames)
-                self._block.append(line)
+                self._block.append(self._stamped(line))
             elif self._block and _KEY_LINE.match(text.decode("latin-1")):
                 self._block.append(line)
             else:
                 self._close_block(frames)
-                frames.append(line)
+                frames.append(self._stamped(line))
         return frames
+
+    def _stamped(self, line: Frame) -> Frame:
+        """``line`` with the pending logger stamp, when it has no time of its own."""
+        stamp, self._stamp = self._stamp, None
+        if line.t_ns is None and stamp is not None:
+            return Frame(line.data, stamp, line.line)
+        return line
 
     def _close_block(self, frames: list[Frame]) -> None:
         if self._block:
@@ -208,8 +224,9 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
         text = frame.data.decode("ascii")
     except UnicodeDecodeError:
         raise ParseError("non-ASCII bytes (noise, or a wrong baud rate)") from None
-    if text.lstrip(_CONTROL).startswith("TYP"):
-        raw = _answer_values(text)
+    head = text.lstrip(_CONTROL)
+    if head.startswith("TYP") or ("\n" in head and _KEY_LINE.match(head)):
+        raw = _answer_values(text)  # with its TYP line, or without (a logger's layout)
     else:
         raw = _telegram_values(text, o["fields"], o["separator"])
     return _reading(raw, frame.t_ns)
@@ -217,7 +234,7 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
 
 def _answer_values(text: str) -> dict[int, str]:
     raw: dict[int, str] = {}
-    for line in text.splitlines()[1:]:
+    for line in text.splitlines():
         m = _KEY_LINE.match(line.strip(_CONTROL))
         if m is not None:
             raw[int(m.group(1))] = m.group(2)
@@ -267,8 +284,13 @@ def _reading(raw: dict[int, str], t_ns: int | None) -> Reading:
     status = values.pop("status", None)
     error = values.get("error_code")
     codes = [c for c in (status, error) if c is not None]
+    sensor_ns = _sensor_clock(values.get("sensor_date"), values.get("sensor_time"))
+    # The most trustworthy clock: the logger's (or the receiver's, live), else the sensor's.
+    values["time_source"] = "sensor" if t_ns is None else "logger"
     if t_ns is None:
-        t_ns = _sensor_clock(values.get("sensor_date"), values.get("sensor_time"))
+        t_ns = sensor_ns
+    elif sensor_ns is not None:
+        values["sensor_clock_offset_s"] = round((sensor_ns - t_ns) / 1e9, 3)
     own = {k: values.pop(k) for k in list(values) if k in _READING_FIELDS}
     wawa = own.get("wawa")
     if wawa is not None and not 0 <= wawa <= 99:

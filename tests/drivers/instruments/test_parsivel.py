@@ -161,3 +161,59 @@ def test_options_and_poll_command() -> None:
         with pytest.raises(ConfigError, match=key):
             parsivel.check_options(bad)
     assert (SPEC.serial.baudrate, SPEC.serial.bytesize, SPEC.serial.parity) == (19200, 8, "N")
+
+
+#: A CS/PA answer whose sensor clock (fields 20/21) reads 00:30:27 on 14.01.2024.
+STAMPED = (
+    b"01:0000.123\r\n02:0012.34\r\n03:88\r\n04:53\r\n05:-RA\r\n07:-9.999\r\n11:00042\r\n"
+    b"12:021\r\n20:00:30:27\r\n21:14.01.2024\r\n"
+)
+
+
+def _decode(data: bytes) -> list[dict]:
+    return [r.to_json() for r in decode_chunks(parsivel.DRIVER, [data], stats=DecodeStats())]
+
+
+@pytest.mark.parametrize("typ", [b"", b"TYP OP4A\r\n"])
+@pytest.mark.parametrize(
+    "stamp",
+    [
+        b"[2024-01-14 00:00:00",
+        b"2024-01-14 00:00:00",
+        b"2024-01-14T00:00:00Z",
+        b"2024/01/14 00:00:00",
+    ],
+)
+def test_a_logger_stamp_on_its_own_line_dates_the_answer(stamp, typ):
+    """The logger's clock, not the sensor's 30 min 27 s ahead, and the output says which."""
+    readings = _decode((stamp + b"\r\n" + typ + STAMPED + b"\r\n") * 2)
+    assert len(readings) == 2
+    for r in readings:
+        assert r["t"] == "2024-01-14T00:00:00Z"
+        assert r["time_source"] == "logger"
+        assert r["sensor_clock_offset_s"] == 30 * 60 + 27
+
+
+def test_without_a_logger_the_sensor_clock_is_said():
+    (reading,) = _decode(b"TYP OP4A\r\n" + STAMPED)
+    assert reading["t"] == "2024-01-14T00:30:27Z" and reading["time_source"] == "sensor"
+
+
+@pytest.mark.parametrize(
+    ("prefix", "t"),
+    [
+        (b"20231204000047;", "2023-12-04T00:00:47Z"),
+        (b"2023-12-04 00:00:47;", "2023-12-04T00:00:47Z"),
+        (b"2023-12-04T00:00:47.250Z;", "2023-12-04T00:00:47.250000Z"),
+        (b"[2023/12/04 00:00:47] ", "2023-12-04T00:00:47Z"),
+    ],
+)
+def test_logger_prefixes_before_a_telegram(shared_fixtures, prefix, t):
+    log = shared_fixtures / "instruments" / "ott-parsivel2" / "Lindenberg_Parsivel_20231204.log"
+    first = log.read_bytes().splitlines()[0]
+    assert first.startswith(b"20231204000047;")
+    (reading,) = _decode(prefix + first[len(b"20231204000047;") :] + b"\r\n")
+    (original,) = _decode(first + b"\r\n")
+    assert reading["t"].replace(".250000", "") == original["t"] == "2023-12-04T00:00:47Z"
+    assert reading["t"] == t and reading["time_source"] == "logger"
+    assert reading["rain_rate_mm_h"] == original["rain_rate_mm_h"]
