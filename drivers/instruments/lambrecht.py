@@ -43,6 +43,7 @@ settings of the talker protocol: 19200 baud, 8N1.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime as dt
 import re
 import zoneinfo
@@ -121,7 +122,9 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
         extra = {"device_type": cols[13], "serial_number": cols[18], "firmware": cols[20]}
         outside = cols[21].split("*")[0]
         extra["outside_temperature_c"] = _float(outside, "outside temperature")
-        return _reading(cols[3:13], t_ns, extra=extra)
+        # the air's temperature, as the t3 telegram's reading carries it
+        reading = _reading(cols[3:13], t_ns, extra=extra)
+        return dataclasses.replace(reading, temperature_c=extra["outside_temperature_c"])
     raise ParseError(f"wrong field count {len(cols)} (expected 16 or 22, or a t2/t3 telegram)")
 
 

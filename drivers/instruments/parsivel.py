@@ -292,6 +292,8 @@ def _reading(raw: dict[int, str], t_ns: int | None) -> Reading:
     elif sensor_ns is not None:
         values["sensor_clock_offset_s"] = round((sensor_ns - t_ns) / 1e9, 3)
     own = {k: values.pop(k) for k in list(values) if k in _READING_FIELDS}
+    if own.get("metar") == "NP":  # OTT's "no precipitation": "" as every driver says it
+        own["metar"] = ""
     wawa = own.get("wawa")
     if wawa is not None and not 0 <= wawa <= 99:
         raise ParseError(f"field 03 (wawa): {wawa} is not a WMO 4680 code")

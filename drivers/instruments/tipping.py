@@ -266,7 +266,7 @@ def parse(frame: Frame, options: dict[str, Any]) -> Reading:
     status = m["status"] or "ok"
     rate = None
     if tips is not None and status == "ok":
-        rate = tips * mm_per_tip * 3600.0 / duration_s
+        rate = round(tips * mm_per_tip * 3600.0 / duration_s, 6)  # not 84.00000000000001
     return Reading(
         driver=NAME,
         t_ns=end_ns,

@@ -82,6 +82,7 @@ def test_22_column_variant_uses_the_logger_utc_time():
     assert r.rain_accum_mm == 3.5 and r.rain_rate_mm_h == 0.12
     assert r.extra["serial_number"] == "12345"
     assert r.extra["outside_temperature_c"] == 12.5
+    assert r.temperature_c == 12.5  # the reading's own temperature, as for a t3 telegram
 
 
 def test_t3_telegram_with_checksum():

@@ -217,3 +217,8 @@ def test_logger_prefixes_before_a_telegram(shared_fixtures, prefix, t):
     assert reading["t"].replace(".250000", "") == original["t"] == "2023-12-04T00:00:47Z"
     assert reading["t"] == t and reading["time_source"] == "logger"
     assert reading["rain_rate_mm_h"] == original["rain_rate_mm_h"]
+
+
+def test_no_precipitation_is_an_empty_metar_group():
+    (reading,) = _decode(b"TYP OP4A\r\n" + STAMPED.replace(b"05:-RA", b"05:NP"))
+    assert reading["metar"] == ""

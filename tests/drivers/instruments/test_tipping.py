@@ -142,6 +142,7 @@ def test_parse_summary():
     r = parse(frame, OPTIONS)
     assert r.t_ns == T0 + 60 * S
     assert r.rain_rate_mm_h == pytest.approx(3 * 0.2 * 60)
+    assert r.to_json()["rain_rate_mm_h"] == 36.0  # as the counts give it, no float noise
     assert r.rain_accum_mm == pytest.approx(2.0)
     assert r.extra == {"tips": 3, "interval_s": 60.0}
     assert r.status == "ok" and r.fault is False
