@@ -13,8 +13,16 @@ Format (``metar``)
       would make the output depend on when it is read).
 
     The report's own day and time are used, with the date's month — or the neighbouring month
-    when that puts the report closer to the date (a 312350Z report filed at 0000 on the 1st).
-    Times are UTC. A trailing ``=`` is ignored; blank lines and ``#`` comments are skipped.
+    when that puts the report closer to the date (a 312350Z report filed at 0000 on the 1st);
+    with only ``month``, a day the month lacks (31 in a 30-day month) is the previous month's
+    end. Times are UTC. Blank lines and ``#`` comments are skipped.
+
+    A report may run over several lines, up to its ``=`` or the next report; NWS
+    collectives (a ``\x01`` start, a WMO heading such as ``SAUS70 KWBC 161200``, a ``METAR``
+    line, reports over several lines, ``\x03`` at the end) are read that way. A correction
+    (``COR``) for a time already reported replaces the earlier report; another report for the
+    same time is a duplicate. An automated station without a precipitation sensor (``AO1`` in
+    its remarks) that reports no weather group says nothing about precipitation: None.
 
 Output
     ``kind="presence"``; ``precip_mm`` is 1.0 when a present-weather group shows falling
@@ -31,6 +39,7 @@ Output
 
 from __future__ import annotations
 
+import calendar
 import re
 import statistics
 import warnings
@@ -63,17 +72,22 @@ class _Report:
     station: str
     precip: float | None
     weather: str | None
+    correction: bool = False
+
+
+#: What a bulletin wraps its reports in: its control characters, WMO heading, ``METAR`` or
+#: ``SPECI`` line, sequence number.
+CONTROL_RE = re.compile(r"[\x00-\x08\x0b-\x1f]")
+HEADING_RE = re.compile(r"^(?:[A-Z]{4}\d{2}\s+[A-Z]{4}\s+\d{6}(?:\s+\w{3})?|METAR|SPECI|\d{1,4})$")
+AO1_RE = re.compile(r"\bAO1\b")
 
 
 def looks_like_metar(texts: Iterable[str]) -> bool:
     """Whether most non-blank lines of ``texts`` (the head of a file) are METAR reports."""
     hits = total = 0
-    for text in texts:
-        text = text.strip()
-        if not text or text.startswith("#") or NOAA_DATE_RE.match(text):
-            continue
+    for _, _, code in _assemble(enumerate(texts, start=1)):  # reports over lines count once
         total += 1
-        hits += bool(REPORT_RE.match(_split_date(text)[1]))
+        hits += bool(REPORT_RE.match(code))
     return total > 0 and hits * 2 >= total
 
 
@@ -109,19 +123,9 @@ def presence(weather: list[tuple], unparsed: Iterable[str] = ()) -> tuple[float 
 def read_metar(lines: Iterable[tuple[int, str]], ctx: ReadContext) -> list[Interval]:
     """Presence intervals of a file of METAR reports (see the module docstring)."""
     reports: dict[str, list[_Report]] = defaultdict(list)
-    pending: datetime | None = None
     year_month = ctx.month
-    for line, raw in lines:
-        text = raw.strip()
-        if not text or text.startswith("#"):
-            continue
-        noaa = NOAA_DATE_RE.match(text)
-        if noaa:
-            pending = datetime(*map(int, noaa.groups()), tzinfo=UTC)
-            continue
+    for line, date, code in _assemble(lines):
         ctx.stats.rows += 1
-        date, code = _split_date(text)
-        date, pending = date or pending, None
         if date is not None:
             year_month = (date.year, date.month)
         if year_month is None:
@@ -141,6 +145,41 @@ def read_metar(lines: Iterable[tuple[int, str]], ctx: ReadContext) -> list[Inter
     for station_reports in reports.values():
         out.extend(_cover(station_reports, ctx))
     return out
+
+
+def _assemble(lines: Iterable[tuple[int, str]]) -> Iterable[tuple[int, datetime | None, str]]:
+    """(first line, date or None, report text) of each report, joined over its lines."""
+    pending: datetime | None = None
+    current: list | None = None  # [line, date, text]
+    for line, raw in lines:
+        text = " ".join(CONTROL_RE.sub(" ", raw).split())
+        if not text or text.startswith("#"):  # bulletins end lines CR CR LF: blank lines
+            continue
+        noaa = NOAA_DATE_RE.match(text)
+        if noaa:
+            pending = datetime(*map(int, noaa.groups()), tzinfo=UTC)
+            continue
+        date, code = _split_date(text)
+        if REPORT_RE.match(code):
+            if current is not None:
+                yield tuple(current)
+            current = [line, date or pending, code]
+            pending = None
+        elif current is not None and not current[2].endswith("="):
+            current[2] += " " + text  # the report goes on
+            continue
+        elif current is None and HEADING_RE.match(text):
+            continue  # a bulletin's heading
+        else:
+            if current is not None:
+                yield tuple(current)
+            current = [line, date or pending, code]  # not a report: _decode says so
+            pending = None
+        if current[2].endswith("="):
+            yield tuple(current)
+            current = None
+    if current is not None:
+        yield tuple(current)
 
 
 def _split_date(text: str) -> tuple[datetime | None, str]:
@@ -170,6 +209,9 @@ def _decode(code: str, year_month: tuple[int, int], date: datetime | None, line:
         raise ValueError(f"not a METAR report: {code[:40]!r}")
     if date is not None:
         year_month = _month_near(match.group(1), date)
+    elif int(match.group(1)[:2]) > calendar.monthrange(*year_month)[1]:
+        index = year_month[0] * 12 + year_month[1] - 2  # a day the month lacks: the one before
+        year_month = (index // 12, index % 12 + 1)
     year, month = year_month
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -180,10 +222,13 @@ def _decode(code: str, year_month: tuple[int, int], date: datetime | None, line:
     if metar.station_id is None or metar.time is None:
         raise ValueError(f"undecodable METAR: {code[:40]!r}")
     time = metar.time.replace(tzinfo=UTC)
+    correction = bool(re.search(r"\bCOR\b", code.split("RMK")[0]))
     if metar.mod == "NO DATA":
-        return _Report(line, time, metar.station_id, None, None)
+        return _Report(line, time, metar.station_id, None, None, correction)
     value, weather = presence(metar.weather, getattr(metar, "_unparsed_groups", ()))
-    return _Report(line, time, metar.station_id, value, weather)
+    if value == 0.0 and weather is None and AO1_RE.search(code):
+        value = None  # an AO1 station has no sensor that could say "no precipitation"
+    return _Report(line, time, metar.station_id, value, weather, correction)
 
 
 def _month_near(ddhhmm: str, date: datetime) -> tuple[int, int]:
@@ -212,6 +257,8 @@ def _cover(reports: list[_Report], ctx: ReadContext) -> list[Interval]:
     for report in reports:
         if unique and unique[-1].time == report.time:
             ctx.stats.duplicates += 1
+            if report.correction:  # a later correction replaces what it corrects
+                unique[-1] = report
             continue
         unique.append(report)
     times = [r.time for r in unique]
