@@ -17,8 +17,31 @@ def _report_path(args: argparse.Namespace) -> str | None:
 
 
 def _reference_options(args: argparse.Namespace) -> dict[str, Any]:
-    options = {"fmt": args.format, "tz": args.tz, "interval_s": args.interval, "month": args.month}
+    options = {
+        "fmt": args.format,
+        "tz": args.tz,
+        "interval_s": args.interval,
+        "month": args.month,
+        "time_column": args.time_column,
+        "amount_column": args.amount_column,
+        "cumulative": args.cumulative or None,
+    }
     return {k: v for k, v in options.items() if v is not None and not (k == "tz" and v == "UTC")}
+
+
+def add_csv_columns(parser: argparse.ArgumentParser) -> None:
+    """The generic CSV's column options, shared by reference, calibrate and compare."""
+    parser.add_argument(
+        "--time-column", metavar="NAME", help="generic CSV: the time column (its end of interval)"
+    )
+    parser.add_argument(
+        "--amount-column", metavar="NAME", help="generic CSV: the precipitation column, mm"
+    )
+    parser.add_argument(
+        "--cumulative",
+        action="store_true",
+        help="generic CSV: the amount is a running total (a gauge counter): use differences",
+    )
 
 
 def offline_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -74,5 +97,6 @@ def offline_parser() -> argparse.ArgumentParser:
     offline.add_argument("--tz", default="UTC", help="time zone of naive reference times")
     offline.add_argument("--interval", type=float, metavar="S", help="reference interval, s")
     offline.add_argument("--month", metavar="YYYY-MM", help="for METAR reports without date")
+    add_csv_columns(offline)
     offline.add_argument("--no-progress", action="store_true", help="no progress bar")
     return offline

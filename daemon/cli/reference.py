@@ -8,6 +8,7 @@ import json
 import sys
 
 from .common import EXIT_OK
+from .offline_options import add_csv_columns
 
 __all__ = ["register"]
 
@@ -23,6 +24,9 @@ def _reference(args: argparse.Namespace) -> int:
         tz=args.tz,
         interval_s=args.interval,
         month=args.month,
+        time_column=args.time_column,
+        amount_column=args.amount_column,
+        cumulative=args.cumulative,
     )
     for interval in data.intervals:
         sys.stdout.write(json.dumps(reference_json(interval), separators=(",", ":")) + "\n")
@@ -64,4 +68,5 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
     reference.add_argument("--tz", default="UTC", help="time zone of naive times (default UTC)")
     reference.add_argument("--interval", type=float, metavar="S", help="interval length, s")
     reference.add_argument("--month", metavar="YYYY-MM", help="for METAR reports without date")
+    add_csv_columns(reference)
     reference.set_defaults(handler=_reference)

@@ -13,8 +13,16 @@ Format (``csv``)
     - optional ``station`` (used by the station filter; without it every row belongs to the
       ``station`` option, which is then reported) and ``quality`` (reported as is).
 
-    Separator ``,``, ``;`` or tab (the one the header uses most); decimal point or comma
-    (``1,5`` in a ``;`` file); fields may be quoted. Empty amount = missing; negative -> None.
+    Other names: ``time_column`` and ``amount_column`` (``--time-column``,
+    ``--amount-column``) name the columns to read; when no column matches, the error lists the
+    file's columns. ``cumulative`` (``--cumulative``): the amount is a running total, as a
+    gauge's counter is, and each interval gets the difference from the row before (a drop is a
+    counter reset: the new count; the first row has no amount).
+
+    Separator ``,``, ``;`` or tab (the one the header uses most); a separator ending every
+    line is ignored; decimal point or comma (``1,5`` in a ``;`` file); fields may be quoted.
+    Lines starting with ``#`` are comments, before the header or after it. Times may also be
+    ``dd.mm.yyyy HH:MM[:SS]``. Empty, ``NaN`` or ``NA`` amount = missing; negative -> None.
     The interval is ``interval_s`` when given, else the median spacing of the times (per
     station), so a file with a single time needs ``interval_s``.
 """
@@ -22,6 +30,7 @@ Format (``csv``)
 from __future__ import annotations
 
 import csv
+import re
 import statistics
 from collections import defaultdict
 from collections.abc import Iterable
@@ -36,6 +45,7 @@ TIME_COLUMNS = ("time", "date", "datetime", "timestamp")
 AMOUNT_COLUMNS = ("precip_mm", "mm", "rr")
 RATE_COLUMNS = ("rain_rate_mm_h", "mm_h")
 SEPARATORS = (",", ";", "\t")
+DMY_RE = re.compile(r"^\d{1,2}\.\d{1,2}\.\d{4}[ T]\d{1,2}:\d{2}(?::\d{2})?$")
 
 
 def sniff_header(text: str) -> tuple[str, list[str]] | None:
@@ -43,42 +53,58 @@ def sniff_header(text: str) -> tuple[str, list[str]] | None:
     sep = max(SEPARATORS, key=text.count)
     if text.count(sep) == 0:
         return None
-    names = [
-        name.strip().strip('"').strip().lower() for name in next(csv.reader([text], delimiter=sep))
-    ]
+    names = _names(text, sep)
     has_time = any(name in names for name in TIME_COLUMNS)
     has_value = any(name in names for name in AMOUNT_COLUMNS + RATE_COLUMNS)
     return (sep, names) if has_time and has_value else None
 
 
+def _names(text: str, sep: str) -> list[str]:
+    names = [
+        name.strip().strip('"').strip().lower() for name in next(csv.reader([text], delimiter=sep))
+    ]
+    return names[:-1] if len(names) > 1 and names[-1] == "" else names  # a trailing separator
+
+
+def _column(names: list[str], wanted: str | None, usual: tuple[str, ...]) -> int | None:
+    if wanted is not None:
+        return names.index(wanted.lower()) if wanted.lower() in names else None
+    return next((names.index(n) for n in usual if n in names), None)
+
+
 def read_generic_csv(lines: Iterable[tuple[int, str]], ctx: ReadContext) -> list[Interval]:
     """Intervals of a generic CSV file (see the module docstring)."""
-    lines = iter(lines)
-    header_line, text = next(((n, t) for n, t in lines if t.strip()), (0, ""))
+    lines = (item for item in lines if item[1].strip() and not item[1].lstrip().startswith("#"))
+    header_line, text = next(lines, (0, ""))
     if not header_line:
         raise ctx.error("empty file")
-    sniffed = sniff_header(text)
-    if sniffed is None:
+    sep = max(SEPARATORS, key=text.count)
+    names = _names(text, sep)
+    i_time = _column(names, ctx.time_column, TIME_COLUMNS)
+    amount = _column(names, ctx.amount_column, AMOUNT_COLUMNS)
+    rate = None if ctx.amount_column else _column(names, None, RATE_COLUMNS)
+    if i_time is None or (amount is None and rate is None):
+        wanted = (
+            f"{ctx.time_column or '/'.join(TIME_COLUMNS)} and "
+            f"{ctx.amount_column or '/'.join(AMOUNT_COLUMNS + RATE_COLUMNS)}"
+        )
         raise ctx.error(
-            "header needs a time column (time/date/datetime/timestamp) and an amount "
-            "(precip_mm/mm/rr) or rate (rain_rate_mm_h/mm_h) column",
+            f"no {wanted} column; the file has: {', '.join(names)} (name them with "
+            "--time-column and --amount-column)",
             header_line,
         )
-    sep, names = sniffed
-    i_time = names.index(next(n for n in TIME_COLUMNS if n in names))
-    amount_name = next((n for n in AMOUNT_COLUMNS if n in names), None)
-    is_rate = amount_name is None
-    i_value = names.index(amount_name or next(n for n in RATE_COLUMNS if n in names))
+    is_rate = amount is None
+    i_value = rate if is_rate else amount
     i_station = names.index("station") if "station" in names else None
     i_quality = names.index("quality") if "quality" in names else None
 
     # (end, value, station, quality) per row; intervals once the spacing is known.
     rows: list[tuple[datetime, float | None, str | None, str | None]] = []
     for line, text in lines:
-        if not text.strip():
-            continue
         ctx.stats.rows += 1
         fields = next(csv.reader([text], delimiter=sep))
+        if len(fields) == len(names) + 1 and not fields[-1].strip():
+            fields.pop()  # a trailing separator
         if len(fields) != len(names):
             ctx.bad_row(line, f"{len(fields)} fields, the header has {len(names)}")
             continue
@@ -93,13 +119,38 @@ def read_generic_csv(lines: Iterable[tuple[int, str]], ctx: ReadContext) -> list
             continue
         quality = (fields[i_quality].strip() or None) if i_quality is not None else None
         rows.append((end, value, station, quality))
+    if ctx.cumulative:
+        rows = _differences(rows)
     return _intervals(rows, ctx, is_rate=is_rate)
+
+
+def _differences(
+    rows: list[tuple[datetime, float | None, str | None, str | None]],
+) -> list[tuple[datetime, float | None, str | None, str | None]]:
+    """A running total's rows as amounts per interval: the difference from the station's row
+    before; a drop is a counter reset (the new count); the first row, or one after a missing
+    total, has no amount."""
+    out = []
+    last: dict[str | None, float | None] = {}
+    for end, total, station, quality in sorted(rows, key=lambda r: (r[2] or "", r[0])):
+        before = last.get(station)
+        amount = None
+        if total is not None and before is not None:
+            amount = total - before if total >= before else total
+        last[station] = total
+        out.append((end, None if amount is None else round(amount, 6), station, quality))
+    return out
 
 
 def _parse_time(text: str, ctx: ReadContext) -> datetime:
     text = text.strip()
     if not text:
         raise ValueError("empty time")
+    if DMY_RE.match(text):  # dd.mm.yyyy HH:MM[:SS], as German and Swiss loggers write it
+        stamp = datetime.strptime(
+            text, "%d.%m.%Y %H:%M:%S" if text.count(":") == 2 else "%d.%m.%Y %H:%M"
+        )
+        return ctx.localise(stamp)
     try:
         seconds = float(text)
     except ValueError:

@@ -175,8 +175,15 @@ def load_reference(
     tz: str = "UTC",
     interval_s: float | None = None,
     month: str | None = None,
+    time_column: str | None = None,
+    amount_column: str | None = None,
+    cumulative: bool = False,
 ) -> ReferenceData:
-    """As :func:`read_reference`, with the format found and the reading statistics."""
+    """As :func:`read_reference`, with the format found and the reading statistics.
+
+    ``time_column``, ``amount_column`` and ``cumulative`` are for a generic CSV whose columns
+    have other names, or whose amount is a running total (:mod:`.generic_csv`); naming a
+    column implies that format when none is given."""
     path = Path(path)
     name = str(path)
     if interval_s is not None and not (math.isfinite(interval_s) and interval_s > 0):
@@ -187,9 +194,12 @@ def load_reference(
         tz=parse_tz(tz),
         interval_s=interval_s,
         month=_parse_month(month, name),
+        time_column=time_column,
+        amount_column=amount_column,
+        cumulative=cumulative,
     )
     if fmt is None:
-        fmt = detect_format(path)
+        fmt = "csv" if time_column or amount_column else detect_format(path)
     elif fmt not in FORMATS:
         raise InputError(f"{name}: unknown format {fmt!r} (one of {', '.join(FORMATS)})")
     with open_binary(path, name) as binary, corrupt_stream_is_input_error(name):

@@ -95,6 +95,10 @@ class ReadContext:
     tz : tzinfo, zone of naive time stamps (UTC unless told).
     interval_s : float or None, the interval length the caller imposes (generic CSV, gauge).
     month : tuple (year, month) or None, for METAR reports without a date prefix.
+    time_column, amount_column : str or None, generic CSV: the columns to read, by name,
+        when the file's names are not the usual ones.
+    cumulative : bool, generic CSV: the amount column is a running total (a gauge's counter):
+        each interval's amount is the difference, a counter reset giving the new count.
     stats : ReadStats
     """
 
@@ -103,6 +107,9 @@ class ReadContext:
     tz: tzinfo = UTC
     interval_s: float | None = None
     month: tuple[int, int] | None = None
+    time_column: str | None = None
+    amount_column: str | None = None
+    cumulative: bool = False
     stats: ReadStats = field(default_factory=ReadStats)
 
     def error(self, reason: str, line: int | None = None) -> InputError:
@@ -170,12 +177,13 @@ def parse_tz(tz: str) -> tzinfo:
 
 
 def parse_number(text: str) -> float | None:
-    """A decimal number with a point or a comma; None for an empty field.
+    """A decimal number with a point or a comma; None for an empty field or ``NaN``/``NA``
+    (how loggers and pandas write a missing value).
 
-    Raises ValueError for anything else (including NaN and infinities).
+    Raises ValueError for anything else (including infinities).
     """
-    text = text.strip()
-    if not text:
+    text = text.strip().strip('"')
+    if not text or text.lower() in ("nan", "na", "n/a"):
         return None
     value = float(text.replace(",", "."))
     if not math.isfinite(value):
