@@ -50,15 +50,19 @@ __all__ = [
     "PublishConfig",
     "RecordingConfig",
     "SiteConfig",
+    "WebConfig",
     "ZenohConfig",
     "check_endpoint",
+    "check_polygon",
     "config_error",
     "default_recording_dir",
     "detector_params",
     "error_lines",
+    "is_loopback",
     "load_config",
     "load_toml",
     "parse_config",
+    "split_listen",
     "state_dir",
 ]
 
@@ -154,6 +158,40 @@ def _listen_endpoint(endpoint: str) -> str:
     return check_endpoint(endpoint, listen=True)
 
 
+#: A region-of-interest polygon has at most this many vertices, each within this many pixels.
+MAX_POLYGON_POINTS = 1000
+_MAX_POLYGON_COORD = 65_536.0
+
+
+def check_polygon(points: typing.Sequence[typing.Sequence[float]]) -> list[list[float]]:
+    """A region-of-interest polygon ``[[x, y], ...]`` in image pixels, checked.
+
+    At least 3 and at most :data:`MAX_POLYGON_POINTS` vertices, each coordinate finite and in
+    [0, 65536], enclosing a non-zero area.
+
+    Raises
+    ------
+    ValueError : saying which rule the polygon breaks.
+    """
+    if not 3 <= len(points) <= MAX_POLYGON_POINTS:
+        raise ValueError(
+            f"a polygon needs 3 to {MAX_POLYGON_POINTS} points [x, y], got {len(points)}"
+        )
+    out = []
+    for i, point in enumerate(points):
+        if len(point) != 2:
+            raise ValueError(f"point {i}: expected [x, y], got {list(point)!r}")
+        x, y = (float(v) for v in point)
+        if not (0 <= x <= _MAX_POLYGON_COORD and 0 <= y <= _MAX_POLYGON_COORD):
+            raise ValueError(f"point {i}: [x, y] must be pixels in [0, 65536], got [{x}, {y}]")
+        out.append([x, y])
+    # Shoelace formula: twice the signed area.
+    area2 = sum(a[0] * b[1] - b[0] * a[1] for a, b in zip(out, out[1:] + out[:1], strict=True))
+    if abs(area2) < 1.0:
+        raise ValueError("the polygon encloses no area (its points are on one line)")
+    return out
+
+
 class SiteConfig(_Strict):
     """``[site]``: the station."""
 
@@ -184,8 +222,10 @@ class CameraConfig(_Strict):
     #: ``file:`` sources: start again at the end; pace frames at the file's rate.
     loop: bool = False
     realtime: bool = True
-    #: Region-of-interest mask: an image, nonzero pixels analysed (exclude sky, trees, the road).
-    roi: str | None = None
+    #: Region of interest: the path of a mask image (nonzero pixels are analysed), or a polygon
+    #: ``[[x, y], ...]`` in pixels of the frames the detector sees (the status page draws one).
+    #: Exclude sky, trees, the road.
+    roi: str | list[Annotated[list[float], Field(min_length=2, max_length=2)]] | None = None
     #: Detector parameters for this camera, over the global ``[detector]`` table.
     detector: dict[str, dict[str, Any]] = Field(default_factory=dict)
 
@@ -199,6 +239,13 @@ class CameraConfig(_Strict):
                 f"unknown source {value!r}: use one of "
                 + ", ".join(f"'{s}...'" for s in _SOURCE_SCHEMES)
             )
+        return value
+
+    @field_validator("roi")
+    @classmethod
+    def _roi_polygon(cls, value: str | list[list[float]] | None) -> str | list[list[float]] | None:
+        if isinstance(value, list):
+            check_polygon(value)
         return value
 
     @model_validator(mode="after")
@@ -351,6 +398,88 @@ class FusionConfig(_Strict):
     end_s: Annotated[float, Field(ge=0, le=3600)] = 60.0
 
 
+#: The status page's port when ``[web] listen`` is not given (docs/daemon.md, "Status page").
+WEB_PORT = 8750
+#: The environment variable that holds the status page's token, unless ``[web] token_env``.
+WEB_TOKEN_ENV = "WEATHERD_WEB_TOKEN"
+
+
+def split_listen(listen: str) -> tuple[str, int]:
+    """``HOST:PORT`` (HOST a name, an IPv4 address or ``[IPv6]``) as ``(host, port)``.
+
+    Raises
+    ------
+    ValueError : not HOST:PORT, or a port outside 0-65535 (0: any free port).
+    """
+    match = _HOST_PORT.match(listen)
+    if match is None:
+        raise ValueError(f"{listen!r}: expected HOST:PORT, e.g. '127.0.0.1:{WEB_PORT}'")
+    port = int(match["port"])
+    if port > 65535:
+        raise ValueError(f"{listen!r}: port must be 0 (any free port) to 65535, got {port}")
+    host = listen[: match.start("port") - 1].strip("[]")
+    return host, port
+
+
+def is_loopback(host: str) -> bool:
+    """True for an address only this machine reaches: 127.0.0.0/8, ::1 and ``localhost``."""
+    import ipaddress
+
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.split("%", 1)[0]).is_loopback
+    except ValueError:
+        return False
+
+
+class WebConfig(_Strict):
+    """``[web]``: the status page and its read-only JSON API (docs/daemon.md, "Status page")."""
+
+    enabled: bool = True
+    #: ``HOST:PORT``; the default reaches this machine only. Any other address needs a
+    #: password (``password_file``) or a token (in the environment variable ``token_env``).
+    listen: str = f"127.0.0.1:{WEB_PORT}"
+    #: A file whose first line is the password (any user name); keep it mode 0600.
+    password_file: str | None = None
+    #: The environment variable holding a token, sent as ``Authorization: Bearer TOKEN`` (or as
+    #: the password). Only its name is configured: a secret never sits in the TOML in clear.
+    token_env: str = WEB_TOKEN_ENV
+    #: HTTPS with this certificate chain and key (PEM); both or neither.
+    tls_cert: str | None = None
+    tls_key: str | None = None
+    #: The live overlay image: its width (px) and how often it is redrawn while someone
+    #: watches (it costs nothing while nobody does).
+    overlay_width: Annotated[int, Field(ge=160, le=1920)] = 960
+    overlay_interval_s: Annotated[float, Field(ge=0.1, le=60)] = 0.5
+
+    @field_validator("listen")
+    @classmethod
+    def _listen(cls, value: str) -> str:
+        split_listen(value)
+        return value
+
+    @field_validator("password_file", "tls_cert", "tls_key")
+    @classmethod
+    def _readable(cls, value: str | None) -> str | None:
+        if value is not None and not os.access(value, os.R_OK):
+            raise ValueError(f"{value}: no such readable file")
+        return value
+
+    @field_validator("token_env")
+    @classmethod
+    def _env_name(cls, value: str) -> str:
+        if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]{0,127}", value):
+            raise ValueError(f"must be an environment variable's name, got {value!r}")
+        return value
+
+    @model_validator(mode="after")
+    def _tls_pair(self) -> WebConfig:
+        if (self.tls_cert is None) != (self.tls_key is None):
+            raise ValueError("tls_cert and tls_key go together: give both or neither")
+        return self
+
+
 class Config(_Strict):
     """The whole file."""
 
@@ -363,6 +492,7 @@ class Config(_Strict):
     recording: RecordingConfig = Field(default_factory=RecordingConfig)
     publish: PublishConfig = Field(default_factory=PublishConfig)
     fusion: FusionConfig = Field(default_factory=FusionConfig)
+    web: WebConfig = Field(default_factory=WebConfig)
 
     @model_validator(mode="after")
     def _unique_ids(self) -> Config:

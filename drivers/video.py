@@ -44,7 +44,7 @@ import queue
 import threading
 import weakref
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from os import PathLike
@@ -64,6 +64,7 @@ __all__ = [
     "VideoReader",
     "VideoWriter",
     "open_video",
+    "polygon_mask",
     "read_gray_image",
     "read_roi_mask",
     "roi_for_size",
@@ -569,6 +570,24 @@ def roi_for_size(mask: np.ndarray, *, width: int, height: int) -> np.ndarray:
     """(height, width) bool from a mask of any size (nearest-neighbour resize)."""
     if mask.shape != (height, width):
         mask = cv2.resize(mask, (width, height), interpolation=cv2.INTER_NEAREST)
+    return mask != 0
+
+
+def polygon_mask(points: Sequence[Sequence[float]], *, width: int, height: int) -> np.ndarray:
+    """(height, width) bool, True on and inside the polygon ``[[x, y], ...]`` (image pixels,
+    pixel (x, y) at the point (x, y); vertices to 1/16 px, as OpenCV's ``fillPoly`` draws).
+
+    Raises
+    ------
+    InputError : the polygon covers no pixel of a width x height frame.
+    """
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    shift = 4  # cv2.fillPoly's fixed-point bits: sub-pixel vertices
+    fixed = np.round(pts * (1 << shift)).astype(np.int32)
+    mask = np.zeros((height, width), np.uint8)
+    cv2.fillPoly(mask, [fixed], 255, lineType=cv2.LINE_8, shift=shift)
+    if not mask.any():
+        raise InputError(f"the ROI polygon covers no pixel of a {width}x{height} frame")
     return mask != 0
 
 

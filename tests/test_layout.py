@@ -113,13 +113,22 @@ LAYERS = {
     "daemon.config": {"hos", "drivers"},
     "daemon.transport": {"hos", "drivers", "daemon.config"},
     "daemon.recording": {"hos", "drivers", "daemon.config", "daemon.transport"},
-    "daemon.service": {"hos", "drivers", "daemon.config", "daemon.transport", "daemon.recording"},
+    "daemon.web": {"hos", "drivers", "daemon.config", "daemon.transport", "daemon.recording"},
+    "daemon.service": {
+        "hos",
+        "drivers",
+        "daemon.config",
+        "daemon.transport",
+        "daemon.recording",
+        "daemon.web",
+    },
     "daemon.offline": {
         "hos",
         "drivers",
         "daemon.config",
         "daemon.transport",
         "daemon.recording",
+        "daemon.web",
         "daemon.service",
     },
 }

@@ -33,7 +33,7 @@ def _run(args: argparse.Namespace) -> NoReturn:
     config = validated_config(args.config)  # exactly what check-config accepts
     stop = StopOnSignals()
     try:
-        status = Daemon(config, stop=stop.event).run()
+        status = Daemon(config, stop=stop.event, config_path=args.config).run()
     finally:
         stop.restore()
     # Every thread of ours is joined by now. Native threads are not ours to join: Zenoh's

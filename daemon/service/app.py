@@ -42,13 +42,14 @@ from daemon.recording.recorder import (
     Recorder,
     RecorderLogHandler,
 )
-from daemon.recording.results import ResultRecorder
+from daemon.recording.results import ResultRecorder, thumbnail_jpeg
 from daemon.transport.messages import schema_for, stamp
 from daemon.transport.publisher import Publisher, ZenohPublisher, zenoh_config
+from daemon.web import CameraFeed, FeedFrame, WebHub, WebServer, blob_centroids, load_secrets
 from drivers.errors import ConfigError, InputError
 from drivers.frames import FrameSource, LiveFrame, mask_credentials
 from drivers.sources import open_source
-from drivers.video import read_roi_mask, roi_for_size
+from drivers.video import polygon_mask, read_roi_mask, roi_for_size
 from hos import FrameResult, HosDetector, _jit
 from hos.params import DetectorParams
 
@@ -109,8 +110,10 @@ class CameraPipeline:
         recorder: ResultRecorder | None,
         opener: Callable[[], FrameSource] | None = None,
         smoothing_s: float = 60.0,
+        feed: CameraFeed | None = None,
     ):
         self.camera = camera
+        self.feed = feed
         self.params = params
         self.site = site
         self.stop_event = stop
@@ -225,9 +228,20 @@ class CameraPipeline:
                 result.R if math.isfinite(result.R) else float("nan"),
             )
             self._verdict = verdict
+        if self.feed is not None and self.feed.due():
+            self.feed.put(_feed_frame(result, frame, self.params, width=self.feed.width))
         self.window.add(result, t_ns=frame.t_ns, processing_s=time.perf_counter() - started)
 
     def _roi(self, width: int, height: int) -> np.ndarray | None:
+        roi = self.camera.roi
+        if isinstance(roi, list):
+            try:
+                return polygon_mask(roi, width=width, height=height)
+            except InputError as exc:
+                # Only the frame size, known once frames come, shows this: better the whole
+                # frame than no detection at an unattended site.
+                log.error("camera %s: roi: %s; analysing the whole frame", self.camera.id, exc)
+                return None
         if self._roi_image is None:
             return None
         return roi_for_size(self._roi_image, width=width, height=height)
@@ -249,6 +263,31 @@ class CameraPipeline:
         }
 
 
+def _feed_frame(
+    result: FrameResult, frame: LiveFrame, params: DetectorParams, *, width: int
+) -> FeedFrame:
+    """What the status page shows of one frame: drawn now, as the result's arrays are only
+    valid until the detector's next frame."""
+    h, w = frame.gray.shape
+    xs, ys, cls = blob_centroids(
+        result.pixel_index,
+        result.pixel_labels,
+        result.blob_class,
+        width=w,
+        label_image=result.labels,
+    )
+    return FeedFrame(
+        t_ns=frame.t_ns,
+        jpeg=thumbnail_jpeg(frame.gray, result, params, width=width),
+        width=w,
+        height=h,
+        result=result.to_json(),
+        blobs_x=np.round(xs, 1).tolist(),
+        blobs_y=np.round(ys, 1).tolist(),
+        blobs_class=cls.tolist(),
+    )
+
+
 def _round(x: float | None, nd: int = 3) -> float | None:
     return None if x is None or not math.isfinite(x) else round(float(x), nd)
 
@@ -266,7 +305,7 @@ def _open_camera(camera: CameraConfig) -> FrameSource:
 
 
 def _read_roi_image(camera: CameraConfig) -> np.ndarray | None:
-    if camera.roi is None:
+    if not isinstance(camera.roi, str):  # none, or a polygon (drawn at each frame size)
         return None
     try:
         return read_roi_mask(camera.roi)
@@ -290,8 +329,15 @@ class _NoPublisher:
 class Daemon:
     """The service: build it from a validated :class:`Config`, then :meth:`run` until ``stop``."""
 
-    def __init__(self, config: Config, *, stop: threading.Event | None = None):
+    def __init__(
+        self,
+        config: Config,
+        *,
+        stop: threading.Event | None = None,
+        config_path: str | os.PathLike[str] | None = None,
+    ):
         self.config = config
+        self.config_path = config_path
         self.site = config.site.id
         self.stop = stop or threading.Event()
         self.cameras = list(config.camera) or [DEMO_CAMERA]
@@ -311,6 +357,9 @@ class Daemon:
         self.recorder: Recorder | None = None
         self.publisher: Publisher | _NoPublisher = _NoPublisher()
         self.pipelines: list[CameraPipeline] = []
+        self.hub = WebHub(self.site)
+        self.web: WebServer | None = None
+        self._web_secrets = load_secrets(config.web) if config.web.enabled else None
         self._versions = versions()
         self._clock_synchronized: object = "unset"  # logged when it changes
 
@@ -354,11 +403,30 @@ class Daemon:
                 if self.recorder is not None
                 else None
             )
-            pipeline = CameraPipeline(cam, params, site=self.site, stop=self.stop, recorder=results)
+            feed = (
+                self.hub.add_camera(
+                    cam.id, interval_s=cfg.web.overlay_interval_s, width=cfg.web.overlay_width
+                )
+                if cfg.web.enabled
+                else None
+            )
+            pipeline = CameraPipeline(
+                cam, params, site=self.site, stop=self.stop, recorder=results, feed=feed
+            )
             self.pipelines.append(pipeline)
             stack.callback(pipeline.stop)
             pipeline.start()
             log.info("camera %s: %s", cam.id, mask_credentials(cam.source))
+        if cfg.web.enabled and self._web_secrets is not None:
+            self.web = WebServer(
+                cfg.web,
+                self.hub,
+                secrets=self._web_secrets,
+                cameras=self.cameras,
+                config_path=self.config_path,
+            )
+            self.web.start()
+            stack.callback(self.web.stop)
         stack.callback(self.stop.set)  # runs first on the way out: every loop ends
         log.info(
             "site %s: %d camera(s), Zenoh %s, recording %s, detector kernels %s",
@@ -467,6 +535,12 @@ class Daemon:
                 precipitation = state["precipitation"]
                 due_state = now + pc.state_interval_s
                 self._emit("state", "/weather/state", state)
+                if state.get("camera_R") is not None:  # the camera's own rate, for the page
+                    self.hub.note(
+                        "camera_rate_mm_h",
+                        self.calibration.rate_mm_h(state["camera_R"]),
+                        t_ns=state["t_ns"],
+                    )
             if now >= due_status:
                 due_status = now + pc.status_interval_s
                 self._emit("status", "/status", self.status(t_ns))
@@ -480,6 +554,7 @@ class Daemon:
         """Publish under ``weather/<site>/<suffix>`` (unless None) and record on ``topic``."""
         if suffix is not None:
             self.publisher.put(suffix, message)
+            self.hub.publish(suffix, message)
         if self.recorder is not None:
             kind = message["schema"].split("/")[0]
             self.recorder.write(topic, kind, schema_for(kind), message, t_ns=message["t_ns"])
@@ -510,6 +585,7 @@ class Daemon:
             calibration=self.calibration.quality(t_ns),
             clock=self._clock(),
             pid=os.getpid(),
+            web=self.web.stats() if self.web is not None else {"enabled": False},
         )
 
     def _clock(self) -> dict[str, Any]:
@@ -578,6 +654,8 @@ def check_paths(config: Config) -> None:
         )
     checks.append(lambda: InstrumentHub(config.instrument, site=config.site.id, emit=_ignore))
     checks.append(functools.partial(_calibration, config))
+    if config.web.enabled:
+        checks.append(functools.partial(load_secrets, config.web))
     errors = []
     for check in checks:  # none does I/O beyond reading files
         try:
