@@ -12,7 +12,7 @@ WHEEL_ARCHS ?= x86_64 aarch64
 WHEEL_PYTHON ?= 3.11
 WHEEL_GLIBC_MINORS := $(shell seq 17 35)
 
-.PHONY: install run test lint format bench lock wheelhouse example clean
+.PHONY: install run test lint format bench lock wheelhouse example clean browser
 
 install: $(STAMP)
 
@@ -40,8 +40,23 @@ format: install
 	$(BIN)/ruff format .
 	$(BIN)/ruff check --fix .
 
-test: install lint
+test: install lint browser
 	$(BIN)/python -m pytest -q
+
+# The status page's tests drive Debian's chromium (tests/daemon/web/test_browser.py): installed
+# here when this runs as root on Debian, else they are skipped with the reason (under CI=true a
+# missing browser fails them). Playwright itself comes from the dev lock; it never downloads a
+# browser.
+browser:
+	@if command -v chromium >/dev/null 2>&1; then :; \
+	elif [ "$$(id -u)" = 0 ] && command -v apt-get >/dev/null 2>&1; then \
+		echo "installing Debian's chromium for the status page's browser tests (about a minute)"; \
+		(apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium \
+			>/dev/null) || echo "WARNING: apt-get could not install chromium: the browser tests will fail"; \
+	else \
+		echo "NOTE: chromium is missing and this is not root on Debian: the status page's browser"; \
+		echo "      tests are skipped (install it with: sudo apt-get install chromium)"; \
+	fi
 
 # The worked example of docs/offline.md: a short rainy MCAP log and a matching gauge CSV, made
 # by the simulator into build/example (about 30 s).

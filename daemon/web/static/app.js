@@ -62,8 +62,10 @@ async function refreshState() {
   else if (s.precipitation === false) { p.textContent = "No precipitation"; p.className = "verdict dry"; }
   else { p.textContent = "Unknown: no source can judge"; p.className = "verdict unknown"; }
   $("#ptype").textContent = s.precipitation_type ?? "–";
-  $("#rate").textContent = s.rain_rate_mm_h === null ? (s.rain_rate_reason ?? "–")
+  const rate = $("#rate");
+  rate.textContent = s.rain_rate_mm_h === null ? "none (hover for why)"
     : `${fmt(s.rain_rate_mm_h, 1, " mm/h")} (${s.rain_rate_source ?? "?"})`;
+  rate.title = s.rain_rate_reason ?? "";
   $("#intensity").textContent = s.intensity_class ?? "–";
   $("#wawa").textContent = s.wawa ?? "–";
   $("#metar").textContent = s.metar ?? "–";
@@ -348,7 +350,7 @@ function plot(canvas, series, {yMax = null, unit = ""} = {}) {
   for (let i = 0; i <= 4; i++) {
     const t = t0 + i / 4 * (t1 - t0);
     g.fillText(new Date(t * 1000).toLocaleTimeString([], {hour: "2-digit", minute: "2-digit"}),
-      Math.min(X(t) - 14, W - 40), H - 4);
+      Math.min(Math.max(X(t) - 24, L), W - R - 56), H - 4);
   }
   let points = 0;
   series.forEach((s) => {
