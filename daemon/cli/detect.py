@@ -16,6 +16,7 @@ from typing import TextIO
 
 import numpy as np
 
+from daemon.config import check_polygon
 from daemon.offline.progress import progress_bar
 from daemon.service.detection import detect_frames
 from drivers.errors import InputError, WeatherdError
@@ -26,7 +27,7 @@ from drivers.frame_size import (
     MIN_FRAME_PIXELS,
 )
 from drivers.sources import open_frames
-from drivers.video import Frame, VideoWriter, read_roi_mask, roi_for_size
+from drivers.video import Frame, VideoWriter, polygon_mask, read_roi_mask, roi_for_size
 from hos.overlay import draw_overlay
 from hos.pipeline import HosDetector
 from hos.result import FrameResult
@@ -162,12 +163,21 @@ def _jsonl_output(target: str) -> Iterator[_Lines]:
 def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.ndarray:
     """The region of interest: (height, width) bool, True where analysed.
 
-    Any image; nonzero pixels are analysed. Resized with nearest neighbour if its size differs.
+    ``path`` is an image (nonzero pixels are analysed; resized with nearest neighbour if its
+    size differs), or a polygon in JSON, ``[[x, y], ...]`` in pixels of the frames analysed (as
+    ``roi`` in the configuration, and as the status page draws it).
 
     Raises
     ------
-    InputError : unreadable image, or a mask that selects no pixel.
+    InputError : unreadable image, a mask that selects no pixel, or a bad polygon.
     """
+    text = str(path).strip()
+    if text.startswith("["):
+        try:
+            polygon = check_polygon(json.loads(text))
+        except (ValueError, TypeError) as exc:
+            raise InputError(f"--roi: not a polygon [[x, y], ...]: {exc}") from None
+        return polygon_mask(polygon, width=width, height=height)
     return roi_for_size(read_roi_mask(path), width=width, height=height)
 
 
@@ -217,7 +227,12 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
     )
     detect.add_argument("--overlay", metavar="OUT", help="write the overlay video (.mp4...)")
     detect.add_argument("--config", metavar="PATH", help="TOML file; its [detector] table")
-    detect.add_argument("--roi", metavar="MASK", help="mask image, nonzero = analysed")
+    detect.add_argument(
+        "--roi",
+        metavar="MASK",
+        help="region of interest: a mask image (nonzero = analysed) or a polygon in JSON, "
+        "'[[x, y], ...]' in frame pixels",
+    )
     detect.add_argument(
         "--max-pixels",
         metavar="N",

@@ -184,6 +184,29 @@ def test_config_and_roi_of_another_size_are_accepted(rainy_clip: Path, tmp_path:
     assert records[12]["state"] != "warming_up"  # the config's warm-up of 10 frames applied
 
 
+def test_roi_polygon_equals_the_same_mask_image(
+    rainy_clip: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mask = np.zeros((HEIGHT, WIDTH), np.uint8)
+    mask[HEIGHT // 2 :, 8:] = 255
+    cv2.imwrite(str(tmp_path / "roi.png"), mask)
+    polygon = json.dumps(
+        [[8, HEIGHT // 2], [WIDTH - 1, HEIGHT // 2], [WIDTH - 1, HEIGHT - 1], [8, HEIGHT - 1]]
+    )
+    out = {}
+    for name, roi in (("mask", str(tmp_path / "roi.png")), ("polygon", polygon)):
+        jsonl = tmp_path / f"{name}.jsonl"
+        status, err = main_in_process(capsys, "detect", rainy_clip, "--roi", roi, "--jsonl", jsonl)
+        assert status == 0, err
+        out[name] = jsonl.read_text()
+    assert out["polygon"] == out["mask"]
+    whole = tmp_path / "whole.jsonl"
+    assert main_in_process(capsys, "detect", rainy_clip, "--jsonl", whole)[0] == 0
+    assert whole.read_text() != out["mask"]  # the region mattered
+    status, err = main_in_process(capsys, "detect", rainy_clip, "--roi", "[[1, 2], [3, 4]]")
+    assert status == 2 and "--roi: not a polygon" in err and err.count("\n") == 1
+
+
 def test_the_shipped_config_is_valid() -> None:
     from daemon.config import detector_params, load_config
 
