@@ -68,6 +68,7 @@ from typing import IO, Any
 
 from daemon.offline.gauge_mcap import read_gauge_mcap
 from daemon.offline.generic_csv import read_generic_csv, sniff_header
+from daemon.offline.knmi import looks_like_knmi, read_knmi
 from daemon.offline.metar_reports import looks_like_metar, read_metar
 from daemon.offline.meteofrance import read_commande, read_hourly, read_obs_json, read_six_minute
 from daemon.offline.reference_common import (
@@ -95,7 +96,16 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-FORMATS = ("mf-hourly", "mf-6min", "mf-commande", "mf-obs-json", "csv", "metar", "mcap-gauge")
+FORMATS = (
+    "mf-hourly",
+    "mf-6min",
+    "mf-commande",
+    "mf-obs-json",
+    "knmi",
+    "csv",
+    "metar",
+    "mcap-gauge",
+)
 MCAP_MAGIC = b"\x89MCAP"
 HEAD_LINES = 20
 MONTH_RE = re.compile(r"^(\d{4})-(\d{2})$")
@@ -104,6 +114,7 @@ _LINE_READERS: dict[str, Callable[[Iterable[tuple[int, str]], ReadContext], list
     "mf-hourly": read_hourly,
     "mf-6min": read_six_minute,
     "mf-commande": read_commande,
+    "knmi": read_knmi,
     "csv": read_generic_csv,
     "metar": read_metar,
 }
@@ -275,6 +286,8 @@ def _format_of(head: list[str]) -> str | None:
     first = lines[0].strip()
     if first[:1] in ("[", "{"):
         return "mf-obs-json"
+    if looks_like_knmi(lines):
+        return "knmi"
     columns = {c.strip().upper() for c in first.split(";")}
     if "NUM_POSTE" in columns and "AAAAMMJJHHMN" in columns:
         return "mf-6min"
