@@ -71,6 +71,7 @@ from daemon.offline.generic_csv import read_generic_csv, sniff_header
 from daemon.offline.knmi import looks_like_knmi, read_knmi
 from daemon.offline.metar_reports import looks_like_metar, read_metar
 from daemon.offline.meteofrance import read_commande, read_hourly, read_obs_json, read_six_minute
+from daemon.offline.noaa import isd_or_lcd, read_isd, read_lcd
 from daemon.offline.reference_common import (
     Interval,
     ReadContext,
@@ -102,6 +103,8 @@ FORMATS = (
     "mf-commande",
     "mf-obs-json",
     "knmi",
+    "noaa-isd",
+    "noaa-lcd",
     "csv",
     "metar",
     "mcap-gauge",
@@ -115,6 +118,8 @@ _LINE_READERS: dict[str, Callable[[Iterable[tuple[int, str]], ReadContext], list
     "mf-6min": read_six_minute,
     "mf-commande": read_commande,
     "knmi": read_knmi,
+    "noaa-isd": read_isd,
+    "noaa-lcd": read_lcd,
     "csv": read_generic_csv,
     "metar": read_metar,
 }
@@ -295,6 +300,9 @@ def _format_of(head: list[str]) -> str | None:
         return "mf-hourly"
     if {"POSTE", "DATE"} <= columns:
         return "mf-commande"
+    noaa = isd_or_lcd(first)
+    if noaa is not None:
+        return noaa
     if sniff_header(first) is not None:
         return "csv"
     if looks_like_metar(lines):
