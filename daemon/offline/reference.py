@@ -66,6 +66,7 @@ from os import PathLike
 from pathlib import Path
 from typing import IO, Any
 
+from daemon.offline.dwd import ZIP_MAGIC, looks_like_dwd, read_dwd_binary, zip_has_product
 from daemon.offline.gauge_mcap import read_gauge_mcap
 from daemon.offline.generic_csv import read_generic_csv, sniff_header
 from daemon.offline.knmi import looks_like_knmi, read_knmi
@@ -102,6 +103,7 @@ FORMATS = (
     "mf-6min",
     "mf-commande",
     "mf-obs-json",
+    "dwd",
     "knmi",
     "noaa-isd",
     "noaa-lcd",
@@ -125,6 +127,7 @@ _LINE_READERS: dict[str, Callable[[Iterable[tuple[int, str]], ReadContext], list
 }
 _BINARY_READERS: dict[str, Callable[[IO[bytes], ReadContext], list[Interval]]] = {
     "mf-obs-json": read_obs_json,
+    "dwd": read_dwd_binary,
     "mcap-gauge": read_gauge_mcap,
 }
 
@@ -241,9 +244,14 @@ def detect_format(path: str | PathLike[str]) -> str:
     name = str(path)
     ctx = ReadContext(name=name)
     with open_binary(path, name) as binary, corrupt_stream_is_input_error(name):
-        if binary.read(len(MCAP_MAGIC)) == MCAP_MAGIC:
+        magic = binary.read(len(MCAP_MAGIC))
+        if magic == MCAP_MAGIC:
             return "mcap-gauge"
         binary.seek(0)
+        if magic.startswith(ZIP_MAGIC):
+            if zip_has_product(binary):
+                return "dwd"
+            raise InputError(f"{name}: a ZIP without a DWD produkt_*.txt; unzip it first")
         head = [text for _, text in islice(iter_lines(binary, ctx), HEAD_LINES)]
     lowered = path.name.lower()
     found = _format_of(head)
@@ -300,6 +308,8 @@ def _format_of(head: list[str]) -> str | None:
         return "mf-hourly"
     if {"POSTE", "DATE"} <= columns:
         return "mf-commande"
+    if looks_like_dwd(first):
+        return "dwd"
     noaa = isd_or_lcd(first)
     if noaa is not None:
         return noaa
