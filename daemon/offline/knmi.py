@@ -56,9 +56,10 @@ def read_knmi(lines: Iterable[tuple[int, str]], ctx: ReadContext) -> list[Interv
     lines = iter(lines)
     header: list[str] | None = None
     header_line = 0
-    for header_line, text in lines:
+    for line, text in lines:
         header = _header_names(text)
         if header is not None:
+            header_line = line
             break
     if header is None:
         raise ctx.error("no KNMI header line (# STN,YYYYMMDD,…) found")

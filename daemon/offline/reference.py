@@ -83,6 +83,7 @@ from daemon.offline.reference_common import (
     open_binary,
     parse_tz,
 )
+from daemon.offline.weewx import SQLITE_MAGIC, looks_like_weewx_csv, read_weewx_binary
 from drivers.errors import InputError
 
 __all__ = [
@@ -107,6 +108,7 @@ FORMATS = (
     "knmi",
     "noaa-isd",
     "noaa-lcd",
+    "weewx",
     "csv",
     "metar",
     "mcap-gauge",
@@ -128,6 +130,7 @@ _LINE_READERS: dict[str, Callable[[Iterable[tuple[int, str]], ReadContext], list
 _BINARY_READERS: dict[str, Callable[[IO[bytes], ReadContext], list[Interval]]] = {
     "mf-obs-json": read_obs_json,
     "dwd": read_dwd_binary,
+    "weewx": read_weewx_binary,
     "mcap-gauge": read_gauge_mcap,
 }
 
@@ -244,9 +247,11 @@ def detect_format(path: str | PathLike[str]) -> str:
     name = str(path)
     ctx = ReadContext(name=name)
     with open_binary(path, name) as binary, corrupt_stream_is_input_error(name):
-        magic = binary.read(len(MCAP_MAGIC))
-        if magic == MCAP_MAGIC:
+        magic = binary.read(len(SQLITE_MAGIC))
+        if magic.startswith(MCAP_MAGIC):
             return "mcap-gauge"
+        if magic == SQLITE_MAGIC:
+            return "weewx"
         binary.seek(0)
         if magic.startswith(ZIP_MAGIC):
             if zip_has_product(binary):
@@ -310,6 +315,8 @@ def _format_of(head: list[str]) -> str | None:
         return "mf-commande"
     if looks_like_dwd(first):
         return "dwd"
+    if looks_like_weewx_csv(first):
+        return "weewx"
     noaa = isd_or_lcd(first)
     if noaa is not None:
         return noaa

@@ -115,7 +115,8 @@ def test_a_zip_of_something_else_and_a_damaged_zip_are_one_line_errors(tmp_path)
 
 
 def test_bad_rows_are_skipped_and_a_foreign_header_is_refused(tmp_path):
-    text = TEN_MIN + "       2667;2019112900;    3;  10;   0.13;   1;eor\n       2667;201911290030\n"
+    text = TEN_MIN + "       2667;2019112900;    3;  10;   0.13;   1;eor\n"
+    text += "       2667;201911290030\n"
     text += "       2667;201911290040;    3;  10;   abc;   1;eor\n"
     data = load_reference(_write(tmp_path, text, "produkt.txt"))
     assert len(data.intervals) == 5 and data.stats.malformed == 3
