@@ -5,7 +5,8 @@ amount of precipitation (or its presence, for METAR) over ``[start, end)`` in UT
 offline calibration and comparison (``daemon.offline.series`` …) line up with the camera.
 ``weatherd reference FILE [--station ID]`` prints ``reference_json`` lines.
 
-Formats (``fmt``; detected from the content, and the name ``H_…``, ``MN_…``, ``.mcap`` when the
+Formats (``fmt``; detected from the content — a ZIP holding a DWD ``produkt_*.txt``, a SQLite
+file, the header line, the KNMI legend — and the name ``H_…``, ``MN_…``, ``.mcap`` when the
 content does not tell; ``.gz`` files of any text format are read through gzip)
 
 =============  ===============================================================  ==============
@@ -19,6 +20,19 @@ mf-commande    Météo-France commande API CSV: ``POSTE;DATE;RR1;…`` (hourly) 
                ``POSTE;DATE;RR6`` (6 min), decimal COMMA
 mf-obs-json    Météo-France observation API JSON: ``validity_time``,            6 min / 1 h
                ``geo_id_insee``, ``rr_per`` (6 min) or ``rr1`` (1 h)            ending there
+dwd            DWD ``produkt_zehn_min_rr_…`` (``RWS_10``, 10 min) or            10 min / 1 h
+               ``produkt_rr_stunde_…`` (``R1``, 1 h), ``;``, ``-999``, or       ending at the
+               the ZIP as downloaded; 10-min stamps MEZ before 2000             stamp
+knmi           KNMI ``uurgeg_…``, script export: ``STN,YYYYMMDD,HH,…,RH``       hour HH-1 to
+               RH in 0.1 mm, -1 = trace; daily files (no ``HH``); UT            HH UT; UT day
+noaa-isd       NOAA Global Hourly CSV: ``DATE`` (UTC), ``AA1``… groups          the group's
+               ``period,depth (0.1 mm),condition,quality``                      period ending
+                                                                                at DATE
+noaa-lcd       NOAA LCD CSV: ``HourlyPrecipitation`` (inches, ``T``, ``s``),    hour ending at
+               ``DATE`` in local STANDARD time (a fixed ``tz`` is required)     DATE
+weewx          weewx archive (``weewx.sdb`` or its CSV export): ``dateTime``,   ``interval``
+               ``usUnits``, ``interval`` (min), ``rain`` (in, cm or mm)         min ending at
+                                                                                dateTime
 csv            generic: a time column and ``precip_mm``/``mm``/``rr`` or        ``interval_s``
                ``rain_rate_mm_h``/``mm_h``; ``,`` or ``;``, point or comma      or the median
                                                                                 spacing, ending
@@ -30,7 +44,8 @@ mcap-gauge     the daemon's ``/instrument/<id>/reading`` messages in an MCAP    
 =============  ===============================================================  ==============
 
 The details and the evidence for each convention are in the module docstrings of
-``daemon.offline.meteofrance``, ``generic_csv``, ``metar_reports`` and ``gauge_mcap``.
+``daemon.offline.meteofrance``, ``dwd``, ``knmi``, ``noaa``, ``weewx``, ``generic_csv``,
+``metar_reports`` and ``gauge_mcap``.
 
 Conventions shared by all formats
     - Times are UTC, tz-aware. Naive time stamps are read in ``tz`` (default ``"UTC"``; e.g.
@@ -169,7 +184,8 @@ def read_reference(
     fmt : one of ``FORMATS`` to force the format; None detects it
     tz : time zone of naive time stamps (IANA name), default UTC
     interval_s : interval length, s — generic CSV (default: the median spacing), gauge MCAP
-        (default 3600), 6-minute observation JSON (default 360); fixed by the other formats
+        (default 3600), 6-minute observation JSON (default 360), NOAA ISD (which period's
+        groups to read; default the shortest); fixed by the other formats
     month : ``"YYYY-MM"`` for METAR reports that carry no date prefix
 
     Returns
