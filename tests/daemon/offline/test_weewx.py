@@ -1,10 +1,12 @@
 """A weewx archive (Davis Vantage and other home stations): the SQLite database and its CSV
-export. No public weewx archive with rain was found; the rows are BUILT from weewx's schema
-documentation (its example rows: dateTime 1413937800, usUnits 1, interval 5), see
-data/PROVENANCE.md."""
+export. The rows of most tests are BUILT from weewx's schema documentation (its example rows:
+dateTime 1413937800, usUnits 1, interval 5); one test reads a real archive found in a public
+repository without a licence, so kept out of git in $WEATHERD_DATA/refs (skipped when
+absent); see data/PROVENANCE.md."""
 
 from __future__ import annotations
 
+import os
 import sqlite3
 from pathlib import Path
 
@@ -50,6 +52,7 @@ def _csv(tmp_path: Path) -> Path:
 
 
 EXPECTED = [0.0, 0.254, None, 0.2, 0.2]
+REAL = Path(os.environ.get("WEATHERD_DATA", "/work/data")) / "refs" / "wd8cxb_weewx.sdb"
 
 
 def test_the_sqlite_archive_in_every_unit_system(tmp_path):
@@ -92,3 +95,17 @@ def test_the_command(tmp_path):
     done = run_weatherd("reference", _database(tmp_path), "--station", "vp2")
     assert done.returncode == 0, done.stderr
     assert "weewx, 5 intervals" in done.stderr and '"station":"vp2"' in done.stdout
+
+
+@pytest.mark.skipif(not REAL.is_file(), reason=f"{REAL} absent (not redistributable)")
+def test_a_real_archive_five_minute_us_units():
+    assert detect_format(REAL) == "weewx"
+    data = load_reference(REAL)
+    ivs = data.intervals
+    assert len(ivs) == 5839 and data.stats.malformed == 0
+    assert {(iv.end - iv.start).total_seconds() for iv in ivs} == {300.0}
+    wet = [iv for iv in ivs if iv.precip_mm]
+    assert len(wet) == 141
+    # 0.01 in tips stored with float noise (0.009999999989800034) come out as 0.254 mm
+    assert wet[0].precip_mm == 0.254 and wet[0].end.isoformat() == "2015-06-21T18:35:00+00:00"
+    assert sum(iv.precip_mm for iv in wet) == pytest.approx(3.06 * 25.4, abs=0.01)
