@@ -122,3 +122,19 @@ def test_bad_rows_are_skipped_and_a_foreign_header_is_refused(tmp_path):
     assert len(data.intervals) == 5 and data.stats.malformed == 3
     with pytest.raises(InputError, match="RWS_10"):
         load_reference(_write(tmp_path, "STATIONS_ID;MESS_DATUM;TT_10\n1;1;1\n", "t.txt"))
+
+
+# Real: the first lines of DWD's produkt_tu_stunde_20190912_20210314_00044.txt (hourly air
+# temperature, station 44), as Arombolosh/dwdImporter ships it (data/PROVENANCE.md).
+REAL_TU = (
+    "STATIONS_ID;MESS_DATUM;QN_9;TT_TU;RF_TU;eor\n"
+    "         44;2019091200;    3;  15.2;  96.0;eor\n"
+    "         44;2019091201;    3;  15.4;  96.0;eor\n"
+)
+
+
+def test_a_real_dwd_product_without_precipitation_is_recognised_and_refused(tmp_path):
+    path = _write(tmp_path, REAL_TU, "produkt_tu_stunde_20190912_20210314_00044.txt")
+    assert detect_format(path) == "dwd"
+    with pytest.raises(InputError, match="it has STATIONS_ID, MESS_DATUM, QN_9, TT_TU"):
+        load_reference(path)
