@@ -10,7 +10,11 @@ overwritten, bytes flipped) reach deeper into the parsers than random bytes do. 
 from __future__ import annotations
 
 import gzip
+import io
 import json
+import sqlite3
+import zipfile
+from contextlib import closing
 from pathlib import Path
 
 import pytest
@@ -51,7 +55,44 @@ REFERENCE_SEEDS = {
     ).encode(),
     "metar": b"LFPO 161200Z 24012KT 9999 -RA BKN020 12/10 Q1012\n"
     b"LFPO 161230Z 24012KT 9999 RA BKN020 12/10 Q1012\n",
+    "dwd": b"STATIONS_ID;MESS_DATUM;  QN;RWS_DAU_10;RWS_10;RWS_IND_10;eor\n"
+    b"       2667;199912312350;    3;  10;   0.13;   1;eor\n"
+    b"       2667;201911290000;    3;-999;-999.00;-999;eor\n",
+    "knmi": b"# SOURCE: ROYAL NETHERLANDS METEOROLOGICAL INSTITUTE (KNMI)\n"
+    b"# STN,YYYYMMDD,   HH,   DR,   RH\n  260,20000729,   16,   10,  217\n"
+    b"  260,20000729,   24,    0,   -1\n",
+    "noaa-isd": b'"STATION","DATE","REPORT_TYPE","AA1","AA2"\n'
+    b'"94733099999","2019-01-05T22:00:00","FM-12","24,0004,3,1",""\n'
+    b'"94733099999","2019-01-06T04:00:00","FM-12","06,0000,2,1","24,9999,9,9"\n',
+    "noaa-lcd": b'"STATION","DATE","REPORT_TYPE","HourlyPrecipitation"\n'
+    b'"72503014732","2024-06-15T06:51:00","FM-15","0.10"\n'
+    b'"72503014732","2024-06-15T07:51:00","FM-15","0.02s"\n',
+    "weewx": b"dateTime,usUnits,interval,rain\n1413937800,1,5,0.01\n1413938100,17,5,\n",
 }
+
+
+def dwd_zip(product: bytes) -> bytes:
+    """``product`` as the ``produkt_*.txt`` of a ZIP, as DWD serves it."""
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("Metadaten_Geographie_02667.txt", b"Stations_id;Stationshoehe\n")
+        archive.writestr("produkt_zehn_min_rr_20191129_20191129_02667.txt", product)
+    return buffer.getvalue()
+
+
+def weewx_sqlite() -> bytes:
+    """A two-row weewx ``archive`` table as SQLite file bytes."""
+    with closing(sqlite3.connect(":memory:")) as db:
+        db.execute("CREATE TABLE archive (dateTime INTEGER, usUnits INTEGER, interval, rain)")
+        db.executemany(
+            "INSERT INTO archive VALUES (?, ?, ?, ?)", [(1413937800, 1, 5, 0.01), (1, 16, 5, None)]
+        )
+        db.commit()
+        return db.serialize()
+
+
+# The binary layouts of two formats: a DWD ZIP and a weewx SQLite archive.
+BINARY_SEEDS = {"dwd": dwd_zip(REFERENCE_SEEDS["dwd"]), "weewx": weewx_sqlite()}
 
 
 def _write(tmp_path: Path, name: str, data: bytes) -> Path:
@@ -102,6 +143,16 @@ def test_reference_formats_never_fail_inside(tmp_path_factory, fmt, data):
     raw = data.draw(
         st.one_of(st.binary(max_size=2048), damaged(seed), damaged(gzip.compress(seed)))
     )
+    path = _write(tmp_path_factory.mktemp("fuzz"), "reference.dat", raw)
+    _reference(path, fmt)
+    _reference(path, None)  # and detected
+
+
+@pytest.mark.parametrize("fmt", sorted(BINARY_SEEDS))
+@FUZZ
+@given(data=st.data())
+def test_binary_reference_layouts_never_fail_inside(tmp_path_factory, fmt, data):
+    raw = data.draw(damaged(BINARY_SEEDS[fmt]))
     path = _write(tmp_path_factory.mktemp("fuzz"), "reference.dat", raw)
     _reference(path, fmt)
     _reference(path, None)  # and detected

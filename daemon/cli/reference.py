@@ -53,7 +53,8 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
     reference = commands.add_parser(
         "reference",
         parents=parents,
-        help="station data (Météo-France, CSV, METAR, a gauge in MCAP) as JSON lines",
+        help="station data (Météo-France, DWD, KNMI, NOAA, weewx, CSV, METAR, a gauge in MCAP) "
+        "as JSON lines",
         description="Parse a station's reference file: one JSON line per interval, "
         '{"start", "end", "precip_mm", "station"} (times in UTC, intervals [start, end)).',
     )
@@ -62,11 +63,16 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
     reference.add_argument(
         "--format",
         metavar="FMT",
-        help="force the format: mf-hourly, mf-6min, mf-commande, mf-obs-json, csv, metar, "
-        "mcap-gauge (default: detected)",
+        help="force the format: mf-hourly, mf-6min, mf-commande, mf-obs-json, dwd, knmi, "
+        "noaa-isd, noaa-lcd, weewx, csv, metar, mcap-gauge (default: detected)",
     )
     reference.add_argument("--tz", default="UTC", help="time zone of naive times (default UTC)")
-    reference.add_argument("--interval", type=float, metavar="S", help="interval length, s")
+    reference.add_argument(
+        "--interval",
+        type=float,
+        metavar="S",
+        help="interval length, s (generic CSV, gauge); the period of NOAA ISD groups to read",
+    )
     reference.add_argument("--month", metavar="YYYY-MM", help="for METAR reports without date")
     add_csv_columns(reference)
     reference.set_defaults(handler=_reference)

@@ -5,7 +5,8 @@ amount of precipitation (or its presence, for METAR) over ``[start, end)`` in UT
 offline calibration and comparison (``daemon.offline.series`` …) line up with the camera.
 ``weatherd reference FILE [--station ID]`` prints ``reference_json`` lines.
 
-Formats (``fmt``; detected from the content, and the name ``H_…``, ``MN_…``, ``.mcap`` when the
+Formats (``fmt``; detected from the content — a ZIP holding a DWD ``produkt_*.txt``, a SQLite
+file, the header line, the KNMI legend — and the name ``H_…``, ``MN_…``, ``.mcap`` when the
 content does not tell; ``.gz`` files of any text format are read through gzip)
 
 =============  ===============================================================  ==============
@@ -19,6 +20,19 @@ mf-commande    Météo-France commande API CSV: ``POSTE;DATE;RR1;…`` (hourly) 
                ``POSTE;DATE;RR6`` (6 min), decimal COMMA
 mf-obs-json    Météo-France observation API JSON: ``validity_time``,            6 min / 1 h
                ``geo_id_insee``, ``rr_per`` (6 min) or ``rr1`` (1 h)            ending there
+dwd            DWD ``produkt_zehn_min_rr_…`` (``RWS_10``, 10 min) or            10 min / 1 h
+               ``produkt_rr_stunde_…`` (``R1``, 1 h), ``;``, ``-999``, or       ending at the
+               the ZIP as downloaded; 10-min stamps MEZ before 2000             stamp
+knmi           KNMI ``uurgeg_…``, script export: ``STN,YYYYMMDD,HH,…,RH``       hour HH-1 to
+               RH in 0.1 mm, -1 = trace; daily files (no ``HH``); UT            HH UT; UT day
+noaa-isd       NOAA Global Hourly CSV: ``DATE`` (UTC), ``AA1``… groups          the group's
+               ``period,depth (0.1 mm),condition,quality``                      period ending
+                                                                                at DATE
+noaa-lcd       NOAA LCD CSV: ``HourlyPrecipitation`` (inches, ``T``, ``s``),    hour ending at
+               ``DATE`` in local STANDARD time (a fixed ``tz`` is required)     DATE
+weewx          weewx archive (``weewx.sdb`` or its CSV export): ``dateTime``,   ``interval``
+               ``usUnits``, ``interval`` (min), ``rain`` (in, cm or mm)         min ending at
+                                                                                dateTime
 csv            generic: a time column and ``precip_mm``/``mm``/``rr`` or        ``interval_s``
                ``rain_rate_mm_h``/``mm_h``; ``,`` or ``;``, point or comma      or the median
                                                                                 spacing, ending
@@ -30,7 +44,8 @@ mcap-gauge     the daemon's ``/instrument/<id>/reading`` messages in an MCAP    
 =============  ===============================================================  ==============
 
 The details and the evidence for each convention are in the module docstrings of
-``daemon.offline.meteofrance``, ``generic_csv``, ``metar_reports`` and ``gauge_mcap``.
+``daemon.offline.meteofrance``, ``dwd``, ``knmi``, ``noaa``, ``weewx``, ``generic_csv``,
+``metar_reports`` and ``gauge_mcap``.
 
 Conventions shared by all formats
     - Times are UTC, tz-aware. Naive time stamps are read in ``tz`` (default ``"UTC"``; e.g.
@@ -66,10 +81,13 @@ from os import PathLike
 from pathlib import Path
 from typing import IO, Any
 
+from daemon.offline.dwd import ZIP_MAGIC, looks_like_dwd, read_dwd_binary, zip_has_product
 from daemon.offline.gauge_mcap import read_gauge_mcap
 from daemon.offline.generic_csv import read_generic_csv, sniff_header
+from daemon.offline.knmi import looks_like_knmi, read_knmi
 from daemon.offline.metar_reports import looks_like_metar, read_metar
 from daemon.offline.meteofrance import read_commande, read_hourly, read_obs_json, read_six_minute
+from daemon.offline.noaa import isd_or_lcd, read_isd, read_lcd
 from daemon.offline.reference_common import (
     Interval,
     ReadContext,
@@ -80,6 +98,7 @@ from daemon.offline.reference_common import (
     open_binary,
     parse_tz,
 )
+from daemon.offline.weewx import SQLITE_MAGIC, looks_like_weewx_csv, read_weewx_binary
 from drivers.errors import InputError
 
 __all__ = [
@@ -95,7 +114,20 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-FORMATS = ("mf-hourly", "mf-6min", "mf-commande", "mf-obs-json", "csv", "metar", "mcap-gauge")
+FORMATS = (
+    "mf-hourly",
+    "mf-6min",
+    "mf-commande",
+    "mf-obs-json",
+    "dwd",
+    "knmi",
+    "noaa-isd",
+    "noaa-lcd",
+    "weewx",
+    "csv",
+    "metar",
+    "mcap-gauge",
+)
 MCAP_MAGIC = b"\x89MCAP"
 HEAD_LINES = 20
 MONTH_RE = re.compile(r"^(\d{4})-(\d{2})$")
@@ -104,11 +136,16 @@ _LINE_READERS: dict[str, Callable[[Iterable[tuple[int, str]], ReadContext], list
     "mf-hourly": read_hourly,
     "mf-6min": read_six_minute,
     "mf-commande": read_commande,
+    "knmi": read_knmi,
+    "noaa-isd": read_isd,
+    "noaa-lcd": read_lcd,
     "csv": read_generic_csv,
     "metar": read_metar,
 }
 _BINARY_READERS: dict[str, Callable[[IO[bytes], ReadContext], list[Interval]]] = {
     "mf-obs-json": read_obs_json,
+    "dwd": read_dwd_binary,
+    "weewx": read_weewx_binary,
     "mcap-gauge": read_gauge_mcap,
 }
 
@@ -147,7 +184,8 @@ def read_reference(
     fmt : one of ``FORMATS`` to force the format; None detects it
     tz : time zone of naive time stamps (IANA name), default UTC
     interval_s : interval length, s — generic CSV (default: the median spacing), gauge MCAP
-        (default 3600), 6-minute observation JSON (default 360); fixed by the other formats
+        (default 3600), 6-minute observation JSON (default 360), NOAA ISD (which period's
+        groups to read; default the shortest); fixed by the other formats
     month : ``"YYYY-MM"`` for METAR reports that carry no date prefix
 
     Returns
@@ -225,9 +263,16 @@ def detect_format(path: str | PathLike[str]) -> str:
     name = str(path)
     ctx = ReadContext(name=name)
     with open_binary(path, name) as binary, corrupt_stream_is_input_error(name):
-        if binary.read(len(MCAP_MAGIC)) == MCAP_MAGIC:
+        magic = binary.read(len(SQLITE_MAGIC))
+        if magic.startswith(MCAP_MAGIC):
             return "mcap-gauge"
+        if magic == SQLITE_MAGIC:
+            return "weewx"
         binary.seek(0)
+        if magic.startswith(ZIP_MAGIC):
+            if zip_has_product(binary):
+                return "dwd"
+            raise InputError(f"{name}: a ZIP without a DWD produkt_*.txt; unzip it first")
         head = [text for _, text in islice(iter_lines(binary, ctx), HEAD_LINES)]
     lowered = path.name.lower()
     found = _format_of(head)
@@ -275,6 +320,8 @@ def _format_of(head: list[str]) -> str | None:
     first = lines[0].strip()
     if first[:1] in ("[", "{"):
         return "mf-obs-json"
+    if looks_like_knmi(lines):
+        return "knmi"
     columns = {c.strip().upper() for c in first.split(";")}
     if "NUM_POSTE" in columns and "AAAAMMJJHHMN" in columns:
         return "mf-6min"
@@ -282,6 +329,13 @@ def _format_of(head: list[str]) -> str | None:
         return "mf-hourly"
     if {"POSTE", "DATE"} <= columns:
         return "mf-commande"
+    if looks_like_dwd(first):
+        return "dwd"
+    if looks_like_weewx_csv(first):
+        return "weewx"
+    noaa = isd_or_lcd(first)
+    if noaa is not None:
+        return noaa
     if sniff_header(first) is not None:
         return "csv"
     if looks_like_metar(lines):
