@@ -43,8 +43,9 @@ class Interval:
         for precipitation observed / not observed (``kind="presence"``); None when missing.
     station : str or None, the station (Météo-France NUM_POSTE / POSTE / geo_id_insee, METAR
         ICAO, gauge instrument id), None when the source does not name one.
-    quality : str or None, the source's quality code for the amount (Météo-France QRR1 / QRR:
-        "0" protected, "1" validated, "2" doubtful, "9" filtered, not yet validated).
+    quality : str or None, the source's quality code or flag for the amount as it gives it
+        (Météo-France QRR1 / QRR: "0" protected, "1" validated, "2" doubtful, "9" filtered, not
+        yet validated; the other formats' flags are in their modules' docstrings).
     kind : str, "amount" or "presence".
     weather : str or None, METAR present-weather groups as reported, e.g. "-RA BR".
     """
