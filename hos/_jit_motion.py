@@ -32,7 +32,7 @@ _ROUNDS = 3  # of iteratively reweighted least squares
 # fastmath lets LLVM reorder the float sums into SIMD lanes; not "nnan"/"ninf": the code
 # compares with np.inf.
 @_njit(fastmath={"reassoc", "contract"})
-def _fit_translation(prev, cur, significance, terms, residuals):  # pragma: no cover - compiled
+def _fit_translation(prev, cur, significance, terms, residuals, exclude):  # pragma: no cover
     # terms: (3, h - 2b, w - 2b) float32 and residuals: ((h - 2b) * (w - 2b),) float64, scratch
     h, w = prev.shape
     b = _BORDER
@@ -47,16 +47,20 @@ def _fit_translation(prev, cur, significance, terms, residuals):  # pragma: no c
     for y in range(b, h - b):
         p0, p1, p2, c0, c1, c2 = prev[y - 1], prev[y], prev[y + 1], cur[y - 1], cur[y], cur[y + 1]
         ix_row, iy_row, it_row = ix[y - b], iy[y - b], it[y - b]
+        ex_row = exclude[y]
         for i in range(w - 2 * b):  # (rows and a non-negative index: SIMD loads and stores)
             x = i + b
+            keep = np.float32(1.0) if ex_row[x] == 0 else np.float32(0.0)
             s00, s01, s02 = p0[x - 1] + c0[x - 1], p0[x] + c0[x], p0[x + 1] + c0[x + 1]
             s10, s12 = p1[x - 1] + c1[x - 1], p1[x + 1] + c1[x + 1]
             s20, s21, s22 = p2[x - 1] + c2[x - 1], p2[x] + c2[x], p2[x + 1] + c2[x + 1]
             gx = ((s02 - s00) + np.float32(2) * (s12 - s10) + (s22 - s20)) * np.float32(1 / 16)
             gy = ((s20 - s00) + np.float32(2) * (s21 - s01) + (s22 - s02)) * np.float32(1 / 16)
+            gx *= keep  # an excluded pixel's terms are zero: it adds nothing to the sums
+            gy *= keep
             ix_row[i] = gx
             iy_row[i] = gy
-            it_row[i] = c1[x] - p1[x]
+            it_row[i] = (c1[x] - p1[x]) * keep
             g2_sum += gx * gx + gy * gy
     ix, iy, it = ix.reshape(n), iy.reshape(n), it.reshape(n)
     g2_mean = g2_sum / n
@@ -127,12 +131,17 @@ def _scratch(shape: tuple[int, int]) -> tuple[np.ndarray, ...]:
             np.empty(shape, np.float32),
             np.empty((3, *inner), np.float32),  # ix, iy, it
             np.empty(inner[0] * inner[1]),  # the residuals
+            np.zeros(shape, np.uint8),  # no pixel excluded
         )
     return _thread.buffers
 
 
 def global_translation_jit(
-    previous: np.ndarray, current: np.ndarray, *, significance: float = 4.0
+    previous: np.ndarray,
+    current: np.ndarray,
+    *,
+    significance: float = 4.0,
+    exclude: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """Translation (dx, dy) in pixels of ``current`` relative to ``previous``, compiled.
 
@@ -144,6 +153,7 @@ def global_translation_jit(
     previous, current : (h, w) float32, same shape (reduced images); other dtypes are converted
         to float32
     significance : a shift is reported only when it is this many standard errors from zero
+    exclude : (h, w) bool or uint8, optional; nonzero pixels take no part in the fit
 
     Returns
     -------
@@ -151,7 +161,7 @@ def global_translation_jit(
     monotone (an under-estimate) above; (0, 0) when not significant.
     """
     if not ENABLED:
-        return global_translation(previous, current, significance=significance)
+        return global_translation(previous, current, significance=significance, exclude=exclude)
     previous = np.asarray(previous, dtype=np.float32)
     current = np.asarray(current, dtype=np.float32)
     if previous.ndim != 2 or previous.shape != current.shape:
@@ -159,8 +169,15 @@ def global_translation_jit(
             f"previous and current must be 2-D of one shape, got {previous.shape} and "
             f"{current.shape}"
         )
-    prev, cur, terms, residuals = _scratch(previous.shape)
+    prev, cur, terms, residuals, none = _scratch(previous.shape)
+    if exclude is None:
+        exclude = none
+    else:
+        exclude = np.asarray(exclude)
+        if exclude.shape != previous.shape:
+            raise ValueError(f"exclude must be {previous.shape}, got {exclude.shape}")
+        exclude = exclude.view(np.uint8) if exclude.dtype == np.bool_ else exclude.astype(np.uint8)
     cv2.GaussianBlur(previous, (5, 5), 1.0, dst=prev)
     cv2.GaussianBlur(current, (5, 5), 1.0, dst=cur)
-    dx, dy = _fit_translation(prev, cur, float(significance), terms, residuals)
+    dx, dy = _fit_translation(prev, cur, float(significance), terms, residuals, exclude)
     return float(dx), float(dy)

@@ -51,7 +51,11 @@ def reduce(gray: np.ndarray, scale: int) -> np.ndarray:
 
 
 def global_translation(
-    previous: np.ndarray, current: np.ndarray, *, significance: float = 4.0
+    previous: np.ndarray,
+    current: np.ndarray,
+    *,
+    significance: float = 4.0,
+    exclude: np.ndarray | None = None,
 ) -> tuple[float, float]:
     """Translation (dx, dy) in pixels of ``current`` relative to ``previous``.
 
@@ -60,6 +64,8 @@ def global_translation(
     previous, current : (h, w) float32, same shape (reduced images)
 
     significance : a shift is reported only when it is this many standard errors from zero
+    exclude : (h, w) bool or uint8, optional; nonzero pixels take no part in the fit (what the
+        background model saw moving: vehicles, headlights and their reflections, streaks)
 
     Returns
     -------
@@ -74,6 +80,9 @@ def global_translation(
     it = cur - prev
     b = 4  # ignore the border, where the blur and the Sobel see the padding
     ix, iy, it = ix[b:-b, b:-b].ravel(), iy[b:-b, b:-b].ravel(), it[b:-b, b:-b].ravel()
+    if exclude is not None:  # an excluded pixel's terms are zero: it adds nothing to the sums
+        keep = (np.asarray(exclude)[b:-b, b:-b].ravel() == 0).astype(np.float32)
+        ix, iy, it = ix * keep, iy * keep, it * keep
     # A translation is told by the edges: keep the pixels whose gradient is above the mean
     # (about a quarter of them), four times less work for the same estimate.
     g2 = ix * ix + iy * iy

@@ -179,11 +179,16 @@ class RobustnessParams:
     persistence_floor: float = 0.03
     persistence_ratio: float = 2.5
     #: Camera offset from its learnt position (pixels at full resolution), measured on an image
-    #: reduced to about 240 px wide against a reference that learns over ``reference_frames``.
-    #: A frame offset by more than ``motion_frame_px`` carries no rain evidence: its edges are
-    #: in the foreground.
+    #: reduced to about 240 px wide against a reference that learns over ``reference_frames``,
+    #: leaving out what moved in the last frame. With ``stabilise``, a frame offset by up to
+    #: ``motion_frame_px`` is translated back before the background model sees it (a camera in
+    #: the wind); a frame offset by more carries no rain evidence: its edges are in the
+    #: foreground.
     reference_frames: int = 100
-    motion_frame_px: float = 0.3
+    stabilise: bool = True
+    #: Smaller offsets are left alone: resampling a compressed frame costs more than it saves.
+    stabilise_min_px: float = 0.25
+    motion_frame_px: float = 0.6
     #: Fraction of recent frames that moved above which the camera is declared ``unstable``.
     motion_unstable_fraction: float = 0.3
     motion_window_frames: int = 25
@@ -207,6 +212,7 @@ class RobustnessParams:
         _check(self.persistence_ratio > 0, "persistence_ratio", "must be > 0")
         _check(self.reference_frames >= 1, "reference_frames", "must be >= 1")
         _check(self.motion_frame_px > 0, "motion_frame_px", "must be > 0")
+        _check(self.stabilise_min_px >= 0, "stabilise_min_px", "must be >= 0")
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")

@@ -88,8 +88,11 @@ class Segmented:
     image: np.ndarray
     #: (H, W) uint8, the background model's foreground (or the frame difference rule's mask)
     foreground: np.ndarray
-    #: (h, w) float32, the reduced, exposure-corrected frame (for the camera-motion estimate)
+    #: (h, w) float32, the reduced, exposure-corrected frame
     small: np.ndarray
+    #: the camera's offset from where the background model learnt the scene, pixels at full
+    #: resolution (``image`` was translated back by it when below ``motion_frame_px``)
+    motion_px: float
     gain: float
     brightness: float
     #: learning rate given to the background model (< 0: its own), for the running background
@@ -132,7 +135,6 @@ class HosDetector:
         self._rate: CandidateRate | None = None
         self._photometric: PhotometricRule | None = None
         self._rate_frames = 0  # frames analysed since the rate map was (re)made
-        self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._last_fit: tuple[float, float, float] | None = None
 
@@ -155,6 +157,8 @@ class HosDetector:
         self._relearn = 0
         self._bg_small: np.ndarray | None = None
         self._gain = 1.0
+        self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
+        self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
 
     def _setup(self, shape: tuple[int, int]) -> None:
         self._shape = shape
@@ -189,6 +193,11 @@ class HosDetector:
         in_roi = small if self._roi_small is None else small[self._roi_small]
         brightness = float(in_roi.mean()) if in_roi.size else 0.0
         frame, corrected_small = self._compensate_exposure(gray, small)
+        # 1b. camera motion (beyond the paper): a camera shaken by the wind is held still by
+        # translating each frame back onto the reference before the background model sees it
+        motion_px, (shift_x, shift_y) = self._camera_offset(corrected_small)
+        if rob.stabilise and rob.stabilise_min_px < motion_px <= rob.motion_frame_px:
+            frame = _translate(frame, -shift_x, -shift_y)
 
         # 2a. the background model
         learning_rate = 0.05 if self._relearn > 0 else -1.0
@@ -201,6 +210,7 @@ class HosDetector:
             changed = max(changed, in_roi_fg / self._roi_area)
         if self._frames_seen > rob.warmup_frames and changed > rob.scene_change_fraction:
             self._relearn = rob.warmup_frames
+        self._remember_foreground(foreground, changed)
         return Segmented(
             frame=self._index,
             t_s=float(t_s),
@@ -208,6 +218,7 @@ class HosDetector:
             image=frame,
             foreground=foreground,
             small=corrected_small,
+            motion_px=motion_px,
             gain=self._gain,
             brightness=brightness,
             learning_rate=learning_rate,
@@ -261,18 +272,22 @@ class HosDetector:
             self._rate = CandidateRate(shape, rob.persistence_frames)
             self._rate_frames = 0
             self._photometric = PhotometricRule(p.segmentation, compiled=self.compiled)
-            self._ref_small = None
             self._moving = 0.0
         self._rate_frames += 1
 
-        # 1b. camera motion (beyond the paper)
-        motion_px = self._camera_offset(seg.small) * seg.scale
+        # 1b. camera motion (beyond the paper): offsets up to motion_frame_px were undone by
+        # segment(); a camera further off its position than that carries no rain evidence, and
+        # one that is so for a good part of the recent frames is being moved (knocked,
+        # re-aimed): unstable, even while the background model relearns the scene it shows.
+        motion_px = seg.motion_px
         moved = motion_px > rob.motion_frame_px
         k = 1.0 / rob.motion_window_frames
         self._moving += k * (float(moved) - self._moving)
         state = seg.state
         if state == State.OK and self._moving > rob.motion_unstable_fraction:
             state = State.UNSTABLE
+        elif state == State.SCENE_CHANGE and (moved or self._moving > rob.motion_unstable_fraction):
+            state = State.UNSTABLE  # the scene changed because the camera moves
         hold = state in (State.WARMING_UP, State.SCENE_CHANGE) or moved
 
         # 2b. candidate pixels
@@ -410,22 +425,42 @@ class HosDetector:
             image_shape=shape,
         )
 
-    def _camera_offset(self, small: np.ndarray) -> float:
-        """The camera's offset from where the background model learnt the scene, in pixels of
-        the reduced image ``small``.
+    def _camera_offset(self, small: np.ndarray) -> tuple[float, tuple[float, float]]:
+        """The camera's offset from where the background model learnt the scene: its length
+        and (dx, dy), pixels at full resolution, from the reduced image ``small``.
 
         Edges light up in the foreground in proportion to this offset, not to the frame-to-frame
         motion: it is measured against a reference image that learns about as slowly as the
         model (on the exposure-corrected image, so that a gain step is not read as motion).
+        What the background model saw moving in the last frame (vehicles, headlights and their
+        reflections, streaks) takes no part in the fit, unless it covers most of the image (a
+        camera being moved). A shift beyond half a reduced pixel is refined once (the
+        linearised fit under-estimates it).
         """
+        rob = self.params.robustness
         if self._ref_small is None or self._ref_small.shape != small.shape:
             self._ref_small = small.copy()
-            return 0.0
+            self._fg_small = None
+            return 0.0, (0.0, 0.0)
         translation = global_translation_jit if self.compiled else global_translation
-        dx, dy = translation(self._ref_small, small)
-        rate = 1.0 / self.params.robustness.reference_frames
-        cv2.accumulateWeighted(small, self._ref_small, rate)
-        return math.hypot(dx, dy)
+        exclude = self._fg_small
+        dx, dy = translation(self._ref_small, small, exclude=exclude)
+        if math.hypot(dx, dy) > 0.5:
+            back = _translate(small, -dx, -dy)
+            ddx, ddy = translation(self._ref_small, back, exclude=exclude)
+            dx, dy = dx + ddx, dy + ddy
+        cv2.accumulateWeighted(small, self._ref_small, 1.0 / rob.reference_frames)
+        scale = self._scale
+        return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
+
+    def _remember_foreground(self, foreground: np.ndarray, changed: float) -> None:
+        """Where the background model saw motion, on the reduced grid, grown by a reduced pixel:
+        left out of the next frame's motion estimate (not when most of the image changed)."""
+        if changed > 0.5:
+            self._fg_small = None
+            return
+        small = reduce(foreground, self._scale) > 0.0
+        self._fg_small = cv2.dilate(small.view(np.uint8), _CROSS)
 
     def _merge_correction(
         self, area: np.ndarray, accepted: np.ndarray, structural: np.ndarray, max_area: float
@@ -444,6 +479,16 @@ class HosDetector:
             return 1.0
         merged = (area > max_area) & (area <= max_area * rob.merge_max_factor) & ~structural
         return 1.0 + float(area[merged].sum()) / accepted_area
+
+
+_CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+
+
+def _translate(image: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """``image`` moved by (dx, dy) pixels (bilinear; the border repeated), as a new array."""
+    m = np.float32([[1.0, 0.0, dx], [0.0, 1.0, dy]])
+    h, w = image.shape[:2]
+    return cv2.warpAffine(image, m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
 def _as_gray(frame: np.ndarray) -> np.ndarray:

@@ -154,3 +154,15 @@ def test_falls_back_to_the_reference_without_numba(monkeypatch):
     b = _shifted(a, 0.5, 0.0)
     monkeypatch.setattr(_jit_motion, "ENABLED", False)
     assert global_translation_jit(a, b) == global_translation(a, b)
+
+
+@pytest.mark.parametrize("dx,dy", [(0.0, 0.0), (0.4, -0.2), (-1.0, 0.6)])
+def test_agrees_with_reference_when_pixels_are_excluded(dx, dy):
+    rng = np.random.default_rng(5)
+    a = _texture(4, (135, 240))
+    b = _shifted(a, dx, dy) + rng.normal(0, 1.0, a.shape).astype(np.float32)
+    b[30:90, 40:120] = rng.uniform(0, 255, (60, 80)).astype(np.float32)  # something moved
+    exclude = np.zeros(a.shape, bool)
+    exclude[28:92, 38:122] = True
+    for mask in (exclude, exclude.astype(np.uint8)):
+        _assert_agrees(a, b, exclude=mask)
