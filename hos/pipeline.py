@@ -41,6 +41,7 @@ from .mixture import fit_mixture
 from .moments import orientation_uncertainty
 from .motion import exposure_gain, global_translation, reduce
 from .params import DetectorParams
+from .ptype import PrecipitationTypeVote, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
 
@@ -135,6 +136,7 @@ class HosDetector:
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._last_fit: tuple[float, float, float] | None = None
+        self._ptype = PrecipitationTypeVote()  # beyond the paper: rain or snow (hos/ptype.py)
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -380,6 +382,19 @@ class HosDetector:
             is_rain = np.zeros(idx.size, dtype=bool)
         blob_class[idx] = np.where(is_rain, BlobClass.RAIN, BlobClass.NOISE)
 
+        # 7b. precipitation type (beyond the paper): the shape of the rain blobs, voted over time
+        valid_sigma = fit.sigma if fit.ok and fit.gof_ok else math.nan
+        rain_idx = idx[is_rain]
+        shape_ = streak_shape(
+            mom.a[rain_idx],
+            mom.b[rain_idx],
+            sigma=valid_sigma,
+            height=h,
+            reference_height=self._ptype.params.reference_height,
+        )
+        vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
+        precipitation_type = self._ptype.update(vote, precipitating=rain)
+
         # 8. intensity
         merge = self._merge_correction(mom.area, accepted, structural, max_area)
         R = S * smoothed.pi * merge
@@ -398,6 +413,8 @@ class HosDetector:
             n_blobs=int(idx.size),
             n_rain_blobs=int(np.count_nonzero(is_rain)),
             histogram=hist,
+            precipitation_type=precipitation_type,
+            streak_shape=shape_,
             motion_px=motion_px,
             gain=seg.gain,
             brightness=seg.brightness,
