@@ -73,17 +73,19 @@ def cases(which: str) -> list[Case]:
     """The tuning set or the held-out set (other seeds, sizes and precipitation settings)."""
     out: list[Case] = []
     if which == "tuning":
-        sizes = [(640, 360)]
+        sizes = [(640, 360), (320, 240)]
         seeds = [1, 2]
         rains = [
             ("light", 0.4, {"length": 11.0, "sigma": 10.0}),
             ("moderate", 1.0, {"length": 11.0, "sigma": 10.0}),
             ("heavy", 2.0, {"length": 14.0, "sigma": 8.0}),
+            ("short-gusty", 1.0, {"length": 7.0, "sigma": 15.0}),
         ]
         snows = [
             ("light", 0.4, {"sigma": 25.0}),
             ("moderate", 1.0, {"sigma": 25.0}),
             ("heavy", 2.0, {"sigma": 30.0}),
+            ("fast", 1.0, {"sigma": 18.0, "blur_px": 5.0}),
         ]
         extra: dict[str, object] = {}
     else:
@@ -134,7 +136,9 @@ def run_case(case: Case) -> dict[str, object]:
         s = r.streak_shape
         scores.append(frame_score(s) if s is not None else math.nan)
         if s is not None and s.n:
-            shapes.append((s.n, s.elongation, s.width_px, s.length_px, math.degrees(s.sigma)))
+            shapes.append(
+                (s.n, s.elongation, s.width_px, s.length_px, math.degrees(s.sigma), s.contrast)
+            )
     return {
         "case": case.name,
         "kind": case.kind,
@@ -142,6 +146,7 @@ def run_case(case: Case) -> dict[str, object]:
         "rain": rain,
         "scores": scores,
         "shapes": shapes,
+        "height": case.height,
     }
 
 
@@ -171,6 +176,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--set", choices=("tuning", "held-out", "both"), default="both")
     ap.add_argument("--features", action="store_true", help="per-case medians of the features")
+    ap.add_argument("--dump", help="write every frame's features to this .npz (for tuning)")
     ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
     args = ap.parse_args(argv)
     sets = ("tuning", "held-out") if args.set == "both" else (args.set,)
@@ -179,17 +185,27 @@ def main(argv: list[str] | None = None) -> int:
         todo = cases(which)
         with ProcessPoolExecutor(args.jobs) as pool:
             results = list(pool.map(run_case, todo))
+        if args.dump:
+            rows = [
+                (KINDS.index(res["kind"]), res["height"], *sh)
+                for res in results
+                for sh in res["shapes"]
+            ]
+            np.savez(args.dump, rows=np.array(rows, float))
         if args.features:
             print(f"\n{which}: per case, medians over frames with blobs")
-            print("case | precip% | n | elong | width | length | sigma° | score | answers")
+            print(
+                "case | precip% | n | elong | width | length | sigma° | contrast | score | answers"
+            )
             for res in results:
-                sh = np.array(res["shapes"]) if res["shapes"] else np.full((1, 5), np.nan)
+                sh = np.array(res["shapes"]) if res["shapes"] else np.full((1, 6), np.nan)
                 med = np.nanmedian(sh, axis=0)
                 sc = np.nanmedian(res["scores"]) if np.isfinite(res["scores"]).any() else math.nan
                 counts = {a: res["answers"].count(a) for a in ANSWERS}
                 print(
                     f"{res['case']:32s} {100 * np.mean(res['rain']):5.1f} "
                     f"{med[0]:5.0f} {med[1]:5.2f} {med[2]:5.2f} {med[3]:5.2f} {med[4]:5.1f} "
+                    f"{med[5]:5.1f} "
                     f"{sc:+6.2f} {counts}"
                 )
         print_confusion(f"{which} set ({len(todo)} clips)", confusion(results))

@@ -41,7 +41,7 @@ from .mixture import fit_mixture
 from .moments import orientation_uncertainty
 from .motion import exposure_gain, global_translation, reduce
 from .params import DetectorParams
-from .ptype import PrecipitationTypeVote, frame_vote, streak_shape
+from .ptype import PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
 
@@ -385,11 +385,18 @@ class HosDetector:
         # 7b. precipitation type (beyond the paper): the shape of the rain blobs, voted over time
         valid_sigma = fit.sigma if fit.ok and fit.gof_ok else math.nan
         rain_idx = idx[is_rain]
+        background = self._photometric.background if p.segmentation.method == "mog" else None
+        contrast = None
+        if background is not None and rain_idx.size:
+            contrast = blob_contrast(
+                seg.image, background, blobs.index, blobs.pixel_labels, blobs.n_labels
+            )[rain_idx]
         shape_ = streak_shape(
             mom.a[rain_idx],
             mom.b[rain_idx],
             sigma=valid_sigma,
             height=h,
+            contrast=contrast,
             reference_height=self._ptype.params.reference_height,
         )
         vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"

@@ -9,10 +9,14 @@ and what it sees is enough to tell the two apart most of the time:
 - a snowflake falls at about 1 m/s and tumbles and drifts: it is drawn as a **short, wide**
   blob, nearly round, whose orientations **spread widely** around the vertical.
 
+A raindrop is also transparent and crosses a pixel in a small part of the exposure, so its
+streak is **faint**; a flake is white, opaque and slow: it is **bright** against the background.
+
 Per frame, :func:`streak_shape` reduces the blobs that vote for the fitted Gaussian (the rain
-blobs of section 6) to three robust numbers: the median elongation a/b (eqs. 15-16), the median
-width b at the reference height, and the fitted sigma (eqs. 23-25). :func:`frame_vote` turns
-them into a vote: a weighted sum of log-ratios against the boundary between the two classes.
+blobs of section 6) to robust numbers: the median elongation a/b (eqs. 15-16), the fitted sigma
+(eqs. 23-25) and the median contrast over the background (eq. 8's difference, averaged over each
+blob by :func:`blob_contrast`). :func:`frame_score` scores each against its typical rain and snow
+values and averages; :func:`frame_vote` turns the score into a vote.
 :class:`PrecipitationTypeVote` keeps the votes of the last frames and says ``rain`` or ``snow``
 once a clear majority agrees, with hysteresis; ``unknown`` when the detector sees no
 precipitation, or the evidence is too thin or split.
@@ -37,6 +41,8 @@ __all__ = [
     "PrecipitationTypeVote",
     "PtypeParams",
     "StreakShape",
+    "blob_contrast",
+    "frame_score",
     "frame_vote",
     "streak_shape",
 ]
@@ -58,18 +64,19 @@ class PtypeParams:
     min_blobs: int = 12
     #: Widths are compared at this frame height (the size rule's reference, 480 rows).
     reference_height: int = 480
-    #: The boundary between the classes: elongation a/b, width b (px at the reference height),
-    #: fitted sigma (radians). A frame with all three at the boundary scores 0.
-    elongation_mid: float = 2.6
-    width_mid_px: float = 1.85
-    sigma_mid: float = math.radians(17.0)
-    #: Weights of the log-ratios in the score (positive: snow). The elongation and the
-    #: sigma are scale-free; the width depends on the lens, so it weighs less.
-    w_elongation: float = 2.0
-    w_width: float = 1.0
-    w_sigma: float = 1.5
-    #: A frame whose |score| is under this does not vote.
-    min_score: float = 0.3
+    #: The typical value of each feature in rain and in snow (medians over the tuning scenes'
+    #: frames): the elongation a/b of the rain blobs, the fitted sigma (radians) and the blobs'
+    #: contrast over the background (grey levels). Each feature scores -1 at its rain value,
+    #: +1 at its snow value, linearly in its logarithm, clipped to +-``max_term``.
+    elongation_rain: float = 2.8
+    elongation_snow: float = 1.94
+    sigma_rain: float = math.radians(14.6)
+    sigma_snow: float = math.radians(30.7)
+    contrast_rain: float = 21.0
+    contrast_snow: float = 47.0
+    max_term: float = 2.0
+    #: A frame whose |score| (the mean of the features' scores) is under this does not vote.
+    min_score: float = 0.25
     #: Temporal vote: the last ``window_frames`` votes; the type is said once
     #: ``min_votes`` frames voted and a share ``switch_share`` of them agree, and changed only
     #: when that share agrees with the other type (hysteresis).
@@ -82,10 +89,10 @@ class PtypeParams:
     def __post_init__(self) -> None:
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
         _check(self.reference_height >= 1, "reference_height", "must be >= 1")
-        _check(self.elongation_mid > 1, "elongation_mid", "must be > 1")
-        _check(self.width_mid_px > 0, "width_mid_px", "must be > 0")
-        _check(0 < self.sigma_mid < math.pi / 2, "sigma_mid", "must be in (0, 90) degrees")
-        _check(min(self.w_elongation, self.w_width, self.w_sigma) >= 0, "w_*", "must be >= 0")
+        for key in ("elongation", "sigma", "contrast"):
+            rain, snow = getattr(self, f"{key}_rain"), getattr(self, f"{key}_snow")
+            _check(rain > 0 and snow > 0 and rain != snow, f"{key}_*", "must be > 0 and differ")
+        _check(self.max_term > 0, "max_term", "must be > 0")
         _check(self.min_score >= 0, "min_score", "must be >= 0")
         _check(self.window_frames >= 1, "window_frames", "must be >= 1")
         _check(1 <= self.min_votes <= self.window_frames, "min_votes", "in 1..window_frames")
@@ -109,6 +116,8 @@ class StreakShape:
     width_px : median minor semi-axis b of eq. 16, px, scaled to the reference height
     length_px : median major semi-axis a of eq. 15, px, scaled to the reference height
     sigma : radians, the fitted sigma of the frame's HOS (eq. 25), NaN without a valid fit
+    contrast : median over the blobs of their mean brightness over the background, grey
+        levels; NaN when unknown
     """
 
     n: int
@@ -116,6 +125,33 @@ class StreakShape:
     width_px: float
     length_px: float
     sigma: float
+    contrast: float = math.nan
+
+
+def blob_contrast(
+    image: np.ndarray,
+    background: np.ndarray,
+    index: np.ndarray,
+    pixel_labels: np.ndarray,
+    n_labels: int,
+) -> np.ndarray:
+    """Mean brightness of each blob over the background, (n_labels,) float64, grey levels.
+
+    Parameters
+    ----------
+    image, background : (H, W) uint8, the frame and the background it is compared with
+    index : (N,) int, flat indices of the candidate pixels; pixel_labels : (N,) int, their blob
+    n_labels : number of labels including 0
+
+    A raindrop is transparent and crosses a pixel in a fraction of the exposure: its streak is
+    faint (Garg & Nayar). A flake is opaque, white and slow: it is bright. NaN for empty labels.
+    """
+    index = np.asarray(index, dtype=np.intp)
+    labels = np.asarray(pixel_labels, dtype=np.intp)
+    diff = image.reshape(-1)[index].astype(np.float64) - background.reshape(-1)[index]
+    area = np.bincount(labels, minlength=n_labels).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.bincount(labels, diff, n_labels) / area
 
 
 def streak_shape(
@@ -124,6 +160,7 @@ def streak_shape(
     *,
     sigma: float,
     height: int,
+    contrast: np.ndarray | None = None,
     reference_height: int = 480,
 ) -> StreakShape:
     """Summarise the blobs that vote for the rain's Gaussian, all at once.
@@ -134,6 +171,8 @@ def streak_shape(
     sigma : float, radians, the frame's fitted sigma (eq. 25); NaN when the fit failed
     height : rows of the frame; lengths are rescaled to ``reference_height`` rows, as the
         size rule's areas are, so that one setting serves every resolution
+    contrast : (N,) float, grey levels, each blob's brightness over the background
+        (:func:`blob_contrast`), or None when unknown
 
     Returns
     -------
@@ -157,24 +196,31 @@ def streak_shape(
         width_px=float(np.median(b)) * scale,
         length_px=float(np.median(a)) * scale,
         sigma=float(sigma),
+        contrast=math.nan if contrast is None else float(np.nanmedian(contrast)),
     )
 
 
 def frame_score(shape: StreakShape, params: PtypeParams | None = None) -> float:
     """Evidence of one frame: > 0 for snow, < 0 for rain, NaN when it cannot vote.
 
-    ``w_e log(e_mid / e) + w_b log(b / b_mid) + w_s log(sigma / sigma_mid)``: a short, wide blob
-    with spread orientations scores positive (snow); a long, thin, parallel one negative
-    (rain). Without a valid fit the sigma term is left out.
+    Each feature x with typical values x_rain and x_snow scores
+    ``(ln x - ln sqrt(x_rain x_snow)) / (ln sqrt(x_snow / x_rain))``: -1 at x_rain, +1 at
+    x_snow, clipped to +-``max_term`` so that no single feature decides alone. The score is the
+    mean over the features the frame has (no valid fit: no sigma; no background: no contrast).
     """
     p = params or PtypeParams()
-    if shape.n < p.min_blobs or not math.isfinite(shape.elongation):
+    if shape.n < p.min_blobs:
         return math.nan
-    score = p.w_elongation * math.log(p.elongation_mid / max(shape.elongation, 1.0))
-    score += p.w_width * math.log(max(shape.width_px, 1e-3) / p.width_mid_px)
-    if math.isfinite(shape.sigma) and shape.sigma > 0:
-        score += p.w_sigma * math.log(shape.sigma / p.sigma_mid)
-    return score
+    x = np.array([shape.elongation, shape.sigma, shape.contrast], dtype=np.float64)
+    rain = np.array([p.elongation_rain, p.sigma_rain, p.contrast_rain])
+    snow = np.array([p.elongation_snow, p.sigma_snow, p.contrast_snow])
+    ok = np.isfinite(x) & (x > 0)
+    if not ok[0]:
+        return math.nan
+    with np.errstate(invalid="ignore", divide="ignore"):
+        terms = (np.log(x) - 0.5 * np.log(rain * snow)) / (0.5 * np.log(snow / rain))
+    terms = np.clip(terms[ok], -p.max_term, p.max_term)
+    return float(terms.mean())
 
 
 def frame_vote(shape: StreakShape, params: PtypeParams | None = None) -> str:
