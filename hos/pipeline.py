@@ -13,7 +13,8 @@ Steps, in the paper's order (Fig. 1), with our additions marked *beyond*:
 6. Kalman smoothing of (Pi, mu, sigma) and the decision on Pi_rain (section 5), *beyond*: misses
    decay the state, hysteresis, a minimum number of blobs, a maximum sigma;
 7. rain pixels: blobs classified by the Bayes ratio against S_b (eqs. 28-30);
-8. intensity R = S * Pi (eq. 31), *beyond*: corrected for merged streaks in heavy rain.
+8. intensity R = S * Pi (eq. 31), *beyond*: corrected for merged streaks in heavy rain;
+9. *beyond*: rain or snow, from the rain blobs' shape, voted over recent frames (``hos.ptype``).
 
 Steps 1 (without the camera motion) and the background model run in :meth:`HosDetector.segment`,
 the rest in :meth:`HosDetector.analyse`, so that a caller can overlap the two on two threads
@@ -21,7 +22,8 @@ the rest in :meth:`HosDetector.analyse`, so that a caller can overlap the two on
 
 The detector is pure: no I/O, no threads, no clock. Its state is the background model and the
 exposure gain (``segment``), and the running background of the photometric rule, the per-pixel
-candidate rate, the camera's reference image and the Kalman filter (``analyse``).
+candidate rate, the camera's reference image, the Kalman filter and the vote on the
+precipitation type (``analyse``).
 """
 
 from __future__ import annotations
@@ -382,7 +384,7 @@ class HosDetector:
             is_rain = np.zeros(idx.size, dtype=bool)
         blob_class[idx] = np.where(is_rain, BlobClass.RAIN, BlobClass.NOISE)
 
-        # 7b. precipitation type (beyond the paper): the shape of the rain blobs, voted over time
+        # 9. precipitation type (beyond the paper): the shape of the rain blobs, voted over time
         valid_sigma = fit.sigma if fit.ok and fit.gof_ok else math.nan
         rain_idx = idx[is_rain]
         background = self._photometric.background if p.segmentation.method == "mog" else None
