@@ -138,7 +138,8 @@ class HosDetector:
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._last_fit: tuple[float, float, float] | None = None
-        self._ptype = PrecipitationTypeVote()  # beyond the paper: rain or snow (hos/ptype.py)
+        # beyond the paper: rain or snow (hos/ptype.py)
+        self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:

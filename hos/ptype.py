@@ -56,6 +56,8 @@ UNKNOWN = "unknown"
 class PtypeParams:
     """How the camera tells rain from snow (``docs/method.md``, "Precipitation type").
 
+    The ``[detector.precipitation_type]`` table of the configuration (angles as ``*_deg``).
+
     The boundary values and weights were set on the tuning scenes of ``bench/ptype_eval.py``
     and checked on scenes with other seeds and settings.
     """
@@ -102,7 +104,7 @@ class PtypeParams:
 
 def _check(ok: bool, key: str, what: str) -> None:
     if not ok:
-        raise ValueError(f"precipitation_type.{key}: {what}")
+        raise ValueError(f"{key}: {what}")
 
 
 @dataclass(frozen=True)

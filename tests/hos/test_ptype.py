@@ -12,6 +12,7 @@ from drivers.simulator import Scene, SceneParams, SnowParams, StreakParams
 from drivers.simulator.demo import demo_params
 from drivers.simulator.precipitation import render_snow, render_streaks
 from hos.blobs import find_blobs
+from hos.params import DetectorParams
 from hos.pipeline import HosDetector
 from hos.ptype import (
     RAIN,
@@ -157,10 +158,16 @@ def test_the_vote_needs_a_majority_and_has_hysteresis() -> None:
         vote.update("hail", precipitating=True)
 
 
-def test_bad_parameters_name_the_key() -> None:
-    with pytest.raises(ValueError, match=r"precipitation_type\.min_votes"):
-        PtypeParams(window_frames=5, min_votes=6)
-    with pytest.raises(ValueError, match=r"precipitation_type\.sigma_"):
+def test_parameters_from_the_config_and_bad_ones_name_the_key() -> None:
+    params = DetectorParams.from_dict(
+        {"precipitation_type": {"sigma_snow_deg": 28.0, "min_votes": 5}}
+    )
+    assert params.precipitation_type.sigma_snow == pytest.approx(math.radians(28.0))
+    assert params.precipitation_type.min_votes == 5
+    assert HosDetector(params)._ptype.params is params.precipitation_type
+    with pytest.raises(ValueError, match=r"^detector\.precipitation_type\.min_votes: "):
+        DetectorParams.from_dict({"precipitation_type": {"window_frames": 5, "min_votes": 6}})
+    with pytest.raises(ValueError, match=r"^sigma_\*: must be > 0 and differ"):
         PtypeParams(sigma_rain=0.3, sigma_snow=0.3)
 
 

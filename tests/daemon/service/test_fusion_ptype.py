@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 
+from daemon.config import ConfigError, detector_params
 from daemon.service.app import _verdict_words
 from daemon.service.fusion import CameraView, CameraWindow, InstrumentView, camera_type, fuse
 from daemon.transport.messages import frame_message
@@ -141,3 +142,12 @@ def test_watch_shows_the_type() -> None:
     state = fuse({"cam1": _view(True, "snow")}, site="s1", t_ns=T0)
     line = human_line({"key": "weather/s1/state", "payload": state})
     assert "precipitation yes (snow)" in line and "cam1 ok snow" in line
+
+
+def test_the_config_sets_the_type_parameters_and_names_bad_keys() -> None:
+    params = detector_params({"detector": {"precipitation_type": {"contrast_snow": 60}}})
+    assert params.precipitation_type.contrast_snow == 60.0
+    with pytest.raises(ConfigError, match=r"detector\.precipitation_type\.min_votes: must be an"):
+        detector_params({"detector": {"precipitation_type": {"min_votes": "x"}}})
+    with pytest.raises(ConfigError, match=r"detector\.precipitation_type\.colour: unknown"):
+        detector_params({"detector": {"precipitation_type": {"colour": 1}}})
