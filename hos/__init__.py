@@ -1,7 +1,8 @@
 """The HOS rain/snow detector (Bossu, Hautière & Tarel, IJCV 2011), pure: arrays in, results out.
 
 Read in order: ``background`` -> ``blobs`` -> ``moments`` -> ``histogram`` -> ``mixture`` ->
-``smoothing`` -> ``pipeline``. ``render`` draws synthetic rain for tests, benchmarks and the demo.
+``smoothing`` -> ``ptype`` -> ``pipeline``. ``render`` draws synthetic rain for tests,
+benchmarks and the demo.
 """
 
 from .histogram import hog_histogram, hos_histogram
@@ -16,6 +17,7 @@ from .params import (
     SegmentationParams,
 )
 from .pipeline import HosDetector, classify_blobs
+from .ptype import PrecipitationTypeVote, PtypeParams
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
 
@@ -30,6 +32,8 @@ __all__ = [
     "MixtureFit",
     "MixtureParams",
     "ParameterSmoother",
+    "PrecipitationTypeVote",
+    "PtypeParams",
     "RobustnessParams",
     "SegmentationParams",
     "State",

@@ -123,6 +123,16 @@ class PhotometricRule:
         self._background_u8: np.ndarray | None = None
         self._band = 0
 
+    @property
+    def background(self) -> np.ndarray | None:
+        """(H, W) uint8, the running background the rule compares with (None before the
+        first frame). Read-only: a view of the rule's working buffer."""
+        if self._background_u8 is None:
+            return None
+        view = self._background_u8.view()
+        view.flags.writeable = False
+        return view
+
     def candidates(
         self, gray: np.ndarray, fg: np.ndarray, *, learning_rate: float = -1.0
     ) -> np.ndarray:

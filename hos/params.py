@@ -12,6 +12,8 @@ import math
 from dataclasses import dataclass, field, fields, replace
 from typing import Any, Literal
 
+from .ptype import PtypeParams
+
 __all__ = [
     "DecisionParams",
     "DetectorParams",
@@ -230,6 +232,8 @@ class DetectorParams:
     mixture: MixtureParams = field(default_factory=MixtureParams)
     decision: DecisionParams = field(default_factory=DecisionParams)
     robustness: RobustnessParams = field(default_factory=RobustnessParams)
+    #: Beyond the paper: rain or snow from the streaks' shape (hos/ptype.py).
+    precipitation_type: PtypeParams = field(default_factory=PtypeParams)
 
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> DetectorParams:

@@ -13,7 +13,8 @@ Steps, in the paper's order (Fig. 1), with our additions marked *beyond*:
 6. Kalman smoothing of (Pi, mu, sigma) and the decision on Pi_rain (section 5), *beyond*: misses
    decay the state, hysteresis, a minimum number of blobs, a maximum sigma;
 7. rain pixels: blobs classified by the Bayes ratio against S_b (eqs. 28-30);
-8. intensity R = S * Pi (eq. 31), *beyond*: corrected for merged streaks in heavy rain.
+8. intensity R = S * Pi (eq. 31), *beyond*: corrected for merged streaks in heavy rain;
+9. *beyond*: rain or snow, from the rain blobs' shape, voted over recent frames (``hos.ptype``).
 
 Steps 1 (without the camera motion) and the background model run in :meth:`HosDetector.segment`,
 the rest in :meth:`HosDetector.analyse`, so that a caller can overlap the two on two threads
@@ -21,7 +22,8 @@ the rest in :meth:`HosDetector.analyse`, so that a caller can overlap the two on
 
 The detector is pure: no I/O, no threads, no clock. Its state is the background model and the
 exposure gain (``segment``), and the running background of the photometric rule, the per-pixel
-candidate rate, the camera's reference image and the Kalman filter (``analyse``).
+candidate rate, the camera's reference image, the Kalman filter and the vote on the
+precipitation type (``analyse``).
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ from .mixture import fit_mixture
 from .moments import orientation_uncertainty
 from .motion import exposure_gain, global_translation, reduce
 from .params import DetectorParams
+from .ptype import PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
 
@@ -137,6 +140,8 @@ class HosDetector:
         self._rate_frames = 0  # frames analysed since the rate map was (re)made
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._last_fit: tuple[float, float, float] | None = None
+        # beyond the paper: rain or snow (hos/ptype.py)
+        self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -395,6 +400,26 @@ class HosDetector:
             is_rain = np.zeros(idx.size, dtype=bool)
         blob_class[idx] = np.where(is_rain, BlobClass.RAIN, BlobClass.NOISE)
 
+        # 9. precipitation type (beyond the paper): the shape of the rain blobs, voted over time
+        valid_sigma = fit.sigma if fit.ok and fit.gof_ok else math.nan
+        rain_idx = idx[is_rain]
+        background = self._photometric.background if p.segmentation.method == "mog" else None
+        contrast = None
+        if background is not None and rain_idx.size:
+            contrast = blob_contrast(
+                seg.image, background, blobs.index, blobs.pixel_labels, blobs.n_labels
+            )[rain_idx]
+        shape_ = streak_shape(
+            mom.a[rain_idx],
+            mom.b[rain_idx],
+            sigma=valid_sigma,
+            height=h,
+            contrast=contrast,
+            reference_height=self._ptype.params.reference_height,
+        )
+        vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
+        precipitation_type = self._ptype.update(vote, precipitating=rain)
+
         # 8. intensity
         merge = self._merge_correction(mom.area, accepted, structural, max_area)
         R = S * smoothed.pi * merge
@@ -413,6 +438,8 @@ class HosDetector:
             n_blobs=int(idx.size),
             n_rain_blobs=int(np.count_nonzero(is_rain)),
             histogram=hist,
+            precipitation_type=precipitation_type,
+            streak_shape=shape_,
             motion_px=motion_px,
             gain=seg.gain,
             brightness=seg.brightness,

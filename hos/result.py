@@ -72,6 +72,11 @@ class FrameResult:
     n_rain_blobs: int
     #: (bins,) float64, the HOS of eq. 20 before normalisation (its sum is S).
     histogram: np.ndarray = field(repr=False)
+    #: Beyond the paper: "rain", "snow" or "unknown" (hos/ptype.py), voted over recent frames;
+    #: "unknown" whenever ``rain`` is false.
+    precipitation_type: str = "unknown"
+    #: The rain blobs' shape behind the vote (hos.ptype.StreakShape), for diagnostics.
+    streak_shape: Any = field(default=None, repr=False)
     #: Diagnostics beyond the contract.
     motion_px: float = 0.0
     gain: float = 1.0
@@ -118,6 +123,7 @@ class FrameResult:
             "R": json_float(self.R),
             "n_blobs": int(self.n_blobs),
             "n_rain_blobs": int(self.n_rain_blobs),
+            "precipitation_type": self.precipitation_type,
             "motion_px": json_float(self.motion_px),
             "gain": json_float(self.gain),
             "brightness": json_float(self.brightness),

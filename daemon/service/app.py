@@ -217,12 +217,12 @@ class CameraPipeline:
             self.results.write(result, frame.gray, t_ns=frame.t_ns)
         self.frames_processed += 1
         self.detector_state = result.state
-        verdict = (bool(result.rain), result.state)
+        verdict = (bool(result.rain), result.state, result.precipitation_type)
         if verdict != self._verdict:
             log.info(
                 "camera %s: %s, state %s (pi_smoothed=%.2f, R=%.0f)",
                 self.camera.id,
-                "RAIN" if result.rain else "no rain",
+                _verdict_words(result),
                 result.state,
                 result.pi_smoothed,
                 result.R if math.isfinite(result.R) else float("nan"),
@@ -286,6 +286,15 @@ def _feed_frame(
         blobs_y=np.round(ys, 1).tolist(),
         blobs_class=cls.tolist(),
     )
+
+
+def _verdict_words(result: FrameResult) -> str:
+    """A camera's verdict for the log: RAIN, SNOW, PRECIPITATION (type unknown) or no
+    precipitation. The detector's ``rain`` is any falling precipitation, rain or snow."""
+    if not result.rain:
+        return "no precipitation"
+    kind = result.precipitation_type
+    return kind.upper() if kind in ("rain", "snow") else "PRECIPITATION (type unknown)"
 
 
 def _round(x: float | None, nd: int = 3) -> float | None:

@@ -13,8 +13,10 @@ The fusion rule, cameras first, then instruments (see :func:`fuse_site`):
   judge and none sees it, and null when none can judge (``reason`` says why). One camera seeing
   rain wins over another that does not: a camera misses rain in its dark or excluded parts far
   more often than it invents it (clear-weather false positives were 0 % in every tested case);
-- the camera alone cannot tell rain from snow: ``precipitation_type`` is ``"unknown"`` when
-  precipitation is seen, null otherwise;
+- the type: a present-weather sensor's, when one gives a type; else the cameras' own
+  (``camera_precipitation_type``, rain or snow from the streaks' shape, ``hos/ptype.py``), when
+  the cameras that see precipitation agree on one; else ``"unknown"`` when precipitation is
+  seen, null otherwise;
 - R (paper eq. 31, R = S·Π: the summed half-lengths of the streaks, px, times the share of
   rain) comes in three averages, all in the same relative unit, which only a site calibration
   turns into mm/h: ``R`` is the last frame's (per camera, in the state and in
@@ -41,6 +43,7 @@ __all__ = [
     "CameraView",
     "CameraWindow",
     "InstrumentView",
+    "camera_type",
     "fuse",
     "intensity_class",
     "metar_group",
@@ -70,6 +73,9 @@ class CameraView:
     #: R averaged over the judged frames of the last minute or so (``R_TAU_S``): what the
     #: calibration turns into mm/h, comparable with an instrument's 1-minute intensity.
     r_mean: float | None = None
+    #: The camera's own type, rain, snow or unknown (``hos/ptype.py``), voted over its
+    #: recent frames; unknown whenever it sees no precipitation.
+    precipitation_type: str = "unknown"
 
     def can_judge(self, now_ns: int, stale_s: float) -> bool:
         return (
@@ -143,6 +149,9 @@ class CameraWindow:
                 t_ns=t_ns,
                 camera=self.camera,
                 rain=bool(latest.get("rain", False)),
+                camera_precipitation_type=latest.get("precipitation_type", "unknown")
+                if n
+                else "unknown",
                 state=latest.get("state", OFFLINE) if n else OFFLINE,
                 capture_state=capture_state,
                 frame=latest.get("frame"),
@@ -194,6 +203,7 @@ class CameraWindow:
                 rain_fraction=self._rain_fraction,
                 t_ns=self._latest_t_ns,
                 r_mean=self._r_ema / self._r_ema_weight if self._r_ema_weight > 0 else None,
+                precipitation_type=j.get("precipitation_type", "unknown"),
             )
 
     def _update_ema(self, r: float, t_ns: int) -> None:
@@ -336,6 +346,16 @@ def _wawa_from(kind: str, intensity: str | None) -> int:
     return 42 if heavy else 41
 
 
+def camera_type(judging: dict[str, CameraView]) -> str | None:
+    """``camera_precipitation_type`` of the site: the type the judging cameras that see
+    precipitation agree on (``rain`` or ``snow``); ``unknown`` when none of them types it, they
+    disagree, or none sees precipitation; null when no camera can judge."""
+    if not judging:
+        return None
+    kinds = {v.precipitation_type for v in judging.values() if v.rain} - {"unknown"}
+    return kinds.pop() if len(kinds) == 1 else "unknown"
+
+
 def _instrument_source(usable: dict[str, InstrumentView], votes: dict[str, Any]) -> str:
     """``rain_rate_source`` of a 0 mm/h that only instruments judged (no camera could)."""
     kinds = {usable[k].kind for k in votes}
@@ -410,7 +430,9 @@ def fuse(
        (``fault``) thus never vetoes the others. One exception: a camera sees rain, a usable
        *present-weather sensor* says none, and no other source agrees with the camera: the
        sensor wins (it measures the drops themselves), and ``disagreement`` records it.
-    3. **Type** from a usable present-weather sensor's WMO 4680 code; otherwise ``unknown``.
+    3. **Type** from a usable present-weather sensor's WMO 4680 code when it gives a type (a
+       code of unknown type, 40-42 or 80, does not); otherwise the cameras'
+       ``camera_precipitation_type`` when they agree on rain or snow; otherwise ``unknown``.
     4. **Rate** from a usable instrument (``rain_rate_source`` ``sensor`` or ``gauge``);
        otherwise from the camera's R through the site calibration (``camera``) when it is
        ready; otherwise null, and ``rain_rate_reason`` says why. When precipitation is false
@@ -456,7 +478,8 @@ def fuse(
     if persistence is not None:
         precipitation = persistence(instant, t_ns)
 
-    # Type: the sensor knows; the camera cannot tell rain from snow.
+    # Type: the sensor's when it gives one, else the cameras' own (rain or snow), else unknown.
+    cam_kind = camera_type(judging)
     kind: str | None = None
     wawa: int | None = None
     metar: str | None = None
@@ -465,6 +488,8 @@ def fuse(
             wawa, metar = v.wawa, v.metar
             kind = wawa_type(v.wawa)
             break
+    if precipitation and kind in (None, "unknown") and cam_kind in ("rain", "snow"):
+        kind = cam_kind
     if precipitation and kind is None:
         kind = "unknown"
     if not precipitation:
@@ -515,6 +540,7 @@ def fuse(
         precipitation=precipitation,
         precipitation_instant=instant,
         precipitation_type=kind,
+        camera_precipitation_type=cam_kind,
         rain_rate_mm_h=None if rate is None else round(rate, 4),
         rain_rate_source=source if rate is not None else None,
         rain_rate_reason=None if rate is not None else _rate_reason(precipitation, camera_rate),
@@ -534,6 +560,9 @@ def fuse(
                 "R_smoothed": None if v.r_mean is None else round(v.r_mean, 6),
                 "fps": None if v.fps is None else round(v.fps, 3),
                 "rain_fraction": v.rain_fraction,
+                "camera_precipitation_type": v.precipitation_type
+                if v.can_judge(t_ns, stale_s)
+                else None,
             }
             for k, v in cameras.items()
         },

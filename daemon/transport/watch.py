@@ -312,7 +312,9 @@ def _state(p: dict) -> str:
         words.append(f"camera_R {_num(p['camera_R'], '.0f')}")
     cams = [
         f"{cam} {c.get('state')}"
-        + {True: " rain", False: " dry"}.get(c.get("rain"), "")
+        + {True: " " + _seen(c.get("camera_precipitation_type")), False: " dry"}.get(
+            c.get("rain"), ""
+        )
         + (f" R {_num(c.get('R'), '.0f')}" if c.get("R") is not None else "")
         for cam, c in (p.get("cameras") or {}).items()
         if isinstance(c, dict)
@@ -325,8 +327,14 @@ def _state(p: dict) -> str:
     return text
 
 
+def _seen(kind: object) -> str:
+    """What a camera that sees precipitation says of it: rain, snow, or just precipitation."""
+    return kind if kind in ("rain", "snow") else "precipitation"
+
+
 def _camera(p: dict) -> str:
-    verdict = {True: "rain", False: "dry"}.get(p.get("rain"), "?")
+    seen = _seen(p.get("camera_precipitation_type"))
+    verdict = {True: seen, False: "dry"}.get(p.get("rain"), "?")
     return (
         f"{p.get('state')} {verdict}, Π {_num(p.get('pi_smoothed'), '.2f')}, "
         f"μ {_num(p.get('mu_smoothed_deg'), '.0f')}°, R {_num(p.get('R'), '.0f')} "

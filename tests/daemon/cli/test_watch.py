@@ -58,7 +58,7 @@ def test_connected_but_silent_then_a_human_line(monkeypatch):
     line = out.getvalue()
     assert line.count("\n") == 1
     assert "weather/e2e-human/state  precipitation yes (unknown)" in line
-    assert "rate unknown" in line and "cam1 ok rain R 1234" in line
+    assert "rate unknown" in line and "cam1 ok precipitation R 1234" in line
 
 
 def test_human_lines_of_each_message():
@@ -71,12 +71,16 @@ def test_human_lines_of_each_message():
     assert "no source can judge" in human_line({"key": "k", "payload": blind})
     camera = {
         "schema": "weather.camera/1", "t": "2026-01-01T00:00:08.000000Z", "state": "ok",
-        "rain": True, "pi_smoothed": 0.95, "mu_smoothed_deg": 90.9, "R": 1232.4,
-        "R_mean": 1351.9, "fps": 25.0,
+        "rain": True, "camera_precipitation_type": "rain", "pi_smoothed": 0.95,
+        "mu_smoothed_deg": 90.9, "R": 1232.4, "R_mean": 1351.9, "fps": 25.0,
     }  # fmt: skip
     assert human_line({"key": "c", "payload": camera}) == (
         "00:00:08Z c  ok rain, Π 0.95, μ 91°, R 1232 (mean 1352), 25.0 fps"
     )
+    snowing = camera | {"camera_precipitation_type": "snow"}
+    assert human_line({"key": "c", "payload": snowing}).startswith("00:00:08Z c  ok snow, Π")
+    typeless = camera | {"camera_precipitation_type": "unknown"}
+    assert "ok precipitation, Π" in human_line({"key": "c", "payload": typeless})
     assert human_line({"key": "a", "alive": False}).endswith("a  gone")
     assert len(human_line({"key": "x", "payload": {"long": "y" * 500}})) < 150
 

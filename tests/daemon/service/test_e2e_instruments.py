@@ -186,7 +186,9 @@ def test_instruments_fusion_calibration_cable_pull_and_replug(
                 camera_only["calibration"],
             )
             assert camera_only["instruments"]["pwd-auto"]["usable"] is False
-            assert camera_only["precipitation_type"] == "unknown"  # the camera cannot tell
+            # Without the sensor, the type is the camera's own: a rain clip is never snow.
+            assert camera_only["precipitation_type"] == camera_only["camera_precipitation_type"]
+            assert camera_only["precipitation_type"] == "rain"
             pulled_at = time.time_ns()
             # Re-plug: the sensor is back and wins again.
             auto.plug()

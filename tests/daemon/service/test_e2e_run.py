@@ -214,6 +214,7 @@ def test_run_publishes_validated_state_and_records(
     assert status["recorder"]["file"]
     assert "zenoh" in status["versions"]
     assert "Traceback" not in daemon.stderr()
+    assert f"camera {CAM}: RAIN" in daemon.stderr() and "SNOW" not in daemon.stderr()
 
     # A finished MCAP file that reads back, with every topic and valid messages.
     assert not list(recordings.glob("*.part"))
@@ -239,6 +240,12 @@ def test_run_publishes_validated_state_and_records(
             validate(message)
     frames = [m for topic, _, m, _ in messages if topic == f"/hos/{CAM}/frame"]
     assert any(f["rain"] for f in frames)
+    # the camera's own precipitation type is recorded with every frame: a rain clip is not snow
+    types = [f["precipitation_type"] for f in frames]
+    assert "snow" not in types and "rain" in types
+    assert all(f["rain"] for f in frames if f["precipitation_type"] != "unknown")
+    summaries = [m for topic, _, m, _ in messages if topic == f"/hos/{CAM}/summary"]
+    assert {m["camera_precipitation_type"] for m in summaries} <= {"rain", "unknown"}
 
 
 def test_sigkill_loses_at_most_seconds_and_the_next_start_repairs(

@@ -1,0 +1,213 @@
+"""Rain or snow (hos/ptype.py): the per-frame score, its invariances, the temporal vote, and the
+whole detector on rendered rain, snow and clear weather."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drivers.simulator import Scene, SceneParams, SnowParams, StreakParams
+from drivers.simulator.demo import demo_params
+from drivers.simulator.precipitation import render_snow, render_streaks
+from hos.blobs import find_blobs
+from hos.params import DetectorParams
+from hos.pipeline import HosDetector
+from hos.ptype import (
+    RAIN,
+    SNOW,
+    UNKNOWN,
+    PrecipitationTypeVote,
+    PtypeParams,
+    StreakShape,
+    blob_contrast,
+    frame_score,
+    frame_vote,
+    streak_shape,
+)
+
+P = PtypeParams()
+
+
+def _shape(elongation: float, sigma_deg: float, contrast: float, n: int = 50) -> StreakShape:
+    return StreakShape(n, elongation, 1.5, 1.5 * elongation, math.radians(sigma_deg), contrast)
+
+
+# -- the per-frame score ------------------------------------------------------------------------
+def test_typical_values_score_minus_one_and_plus_one() -> None:
+    rain = _shape(P.elongation_rain, math.degrees(P.sigma_rain), P.contrast_rain)
+    snow = _shape(P.elongation_snow, math.degrees(P.sigma_snow), P.contrast_snow)
+    assert frame_score(rain) == pytest.approx(-1.0)
+    assert frame_score(snow) == pytest.approx(1.0)
+    assert (frame_vote(rain), frame_vote(snow)) == (RAIN, SNOW)
+    # half-way in every feature (geometric means): no vote
+    mid = _shape(
+        math.sqrt(P.elongation_rain * P.elongation_snow),
+        math.degrees(math.sqrt(P.sigma_rain * P.sigma_snow)),
+        math.sqrt(P.contrast_rain * P.contrast_snow),
+    )
+    assert frame_score(mid) == pytest.approx(0.0, abs=1e-12)
+    assert frame_vote(mid) == UNKNOWN
+
+
+def test_each_feature_pulls_its_way_and_no_single_one_decides() -> None:
+    base = _shape(2.3, 21.0, 31.0)
+    assert frame_score(_shape(6.0, 21.0, 31.0)) < frame_score(base)  # longer, thinner: rain
+    assert frame_score(_shape(2.3, 35.0, 31.0)) > frame_score(base)  # wider spread: snow
+    assert frame_score(_shape(2.3, 21.0, 80.0)) > frame_score(base)  # brighter: snow
+    # a blinding contrast (headlights) is clipped: long parallel streaks still say rain
+    assert frame_vote(_shape(5.0, 8.0, 250.0)) == RAIN
+
+
+def test_missing_features_are_left_out_and_thin_evidence_does_not_vote() -> None:
+    no_fit = _shape(P.elongation_snow, math.nan, math.nan)
+    assert frame_score(no_fit) == pytest.approx(1.0)  # the elongation alone
+    assert math.isnan(frame_score(_shape(1.5, 30.0, 50.0, n=P.min_blobs - 1)))
+    assert frame_vote(_shape(1.5, 30.0, 50.0, n=P.min_blobs - 1)) == UNKNOWN
+    assert math.isnan(frame_score(StreakShape(0, math.nan, math.nan, math.nan, 0.3)))
+
+
+def test_streak_shape_medians_by_hand_and_scale_invariance() -> None:
+    a = np.array([6.0, 4.0, 8.0, 2.0])
+    b = np.array([1.0, 2.0, 1.0, 1.0])
+    s = streak_shape(a, b, sigma=0.2, height=480, contrast=np.array([10.0, 20.0, 30.0, np.nan]))
+    assert s.n == 4
+    assert s.elongation == pytest.approx(np.median([6, 2, 8, 2]))  # 4.0
+    assert (s.width_px, s.length_px) == (pytest.approx(1.0), pytest.approx(5.0))
+    assert (s.sigma, s.contrast) == (0.2, pytest.approx(20.0))
+    # the same blobs filmed at twice the resolution: twice as long and wide, same everything
+    s2 = streak_shape(2 * a, 2 * b, sigma=0.2, height=960, contrast=np.array([10, 20, 30, np.nan]))
+    assert (s2.elongation, s2.width_px, s2.length_px) == pytest.approx(
+        (s.elongation, s.width_px, s.length_px)
+    )
+    few = PtypeParams(min_blobs=1)
+    assert math.isfinite(frame_score(s, few))
+    assert frame_score(s2, few) == pytest.approx(frame_score(s, few))
+    empty = streak_shape(np.zeros(0), np.zeros(0), sigma=math.nan, height=480)
+    assert empty.n == 0 and math.isnan(empty.elongation)
+    with pytest.raises(ValueError, match="one shape"):
+        streak_shape(a, b[:2], sigma=0.1, height=480)
+
+
+def test_blob_contrast_by_hand() -> None:
+    image = np.array([[10, 50, 0], [0, 0, 90]], np.uint8)
+    background = np.array([[5, 20, 0], [0, 0, 30]], np.uint8)
+    index = np.array([0, 1, 5])
+    labels = np.array([1, 1, 2])
+    c = blob_contrast(image, background, index, labels, 3)
+    assert math.isnan(c[0])
+    assert c[1:].tolist() == [pytest.approx((5 + 30) / 2), pytest.approx(60.0)]
+    assert image[0, 0] == 10 and background[0, 1] == 20  # inputs untouched
+
+
+def _rendered_shape(layer, shape: tuple[int, int], sigma: float) -> StreakShape:
+    """What the detector's steps 3-4 would see of a precipitation layer on a black street."""
+    blobs = find_blobs(layer.mask.astype(np.uint8) * 255)
+    area = (shape[0] / 480) ** 2
+    m = blobs.moments
+    keep = np.flatnonzero((m.area >= 4 * area) & (m.area <= 50 * area))
+    keep = keep[keep > 0]
+    image = np.clip(layer.layer + 0.5, 0, 255).astype(np.uint8)
+    contrast = blob_contrast(
+        image, np.zeros_like(image), blobs.index, blobs.pixel_labels, blobs.n_labels
+    )
+    return streak_shape(m.a[keep], m.b[keep], sigma=sigma, height=shape[0], contrast=contrast[keep])
+
+
+@pytest.mark.parametrize("scale", [1, 2])
+def test_rendered_streaks_and_flakes_vote_their_type_at_any_scale(scale: int) -> None:
+    shape = (360 * scale, 640 * scale)
+    rain = render_streaks(
+        shape, StreakParams(count=300 * scale**2, length_px=9.0 * scale, brightness=25.0), rng=3
+    )
+    snow = render_snow(
+        shape,
+        SnowParams(count=220 * scale**2, radius_px=(scale, 3.0 * scale), blur_px=3.0 * scale),
+        rng=4,
+    )
+    rain_shape = _rendered_shape(rain, shape, sigma=math.radians(11.0))
+    snow_shape = _rendered_shape(snow, shape, sigma=math.radians(30.0))
+    assert frame_vote(rain_shape) == RAIN, rain_shape
+    assert frame_vote(snow_shape) == SNOW, snow_shape
+
+
+# -- the temporal vote --------------------------------------------------------------------------
+def test_the_vote_needs_a_majority_and_has_hysteresis() -> None:
+    p = PtypeParams(window_frames=20, min_votes=5, switch_share=0.7, forget_frames=10)
+    vote = PrecipitationTypeVote(p)
+    said = [vote.update(RAIN, precipitating=True) for _ in range(6)]
+    assert said[:4] == [UNKNOWN] * 4 and said[4:] == [RAIN, RAIN]
+    # a split window (60 % snow) does not change the answer
+    for v in [SNOW, SNOW, SNOW, RAIN, RAIN] * 4:
+        assert vote.update(v, precipitating=True) == RAIN
+    # unknown frames do not count either way
+    for _ in range(30):
+        assert vote.update(UNKNOWN, precipitating=True) == RAIN
+    # a clear majority of snow switches it
+    said = [vote.update(SNOW, precipitating=True) for _ in range(20)]
+    assert said[-1] == SNOW and RAIN not in said[said.index(SNOW) :]
+    # no precipitation: unknown; a short gap keeps the votes, a long one forgets them
+    assert vote.update(SNOW, precipitating=False) == UNKNOWN
+    assert vote.update(UNKNOWN, precipitating=True) == SNOW
+    for _ in range(10):
+        vote.update(UNKNOWN, precipitating=False)
+    assert vote.current == UNKNOWN
+    assert vote.update(RAIN, precipitating=True) == UNKNOWN  # counting again from nothing
+    with pytest.raises(ValueError, match="vote"):
+        vote.update("hail", precipitating=True)
+
+
+def test_parameters_from_the_config_and_bad_ones_name_the_key() -> None:
+    params = DetectorParams.from_dict(
+        {"precipitation_type": {"sigma_snow_deg": 28.0, "min_votes": 5}}
+    )
+    assert params.precipitation_type.sigma_snow == pytest.approx(math.radians(28.0))
+    assert params.precipitation_type.min_votes == 5
+    assert HosDetector(params)._ptype.params is params.precipitation_type
+    with pytest.raises(ValueError, match=r"^detector\.precipitation_type\.min_votes: "):
+        DetectorParams.from_dict({"precipitation_type": {"window_frames": 5, "min_votes": 6}})
+    with pytest.raises(ValueError, match=r"^sigma_\*: must be > 0 and differ"):
+        PtypeParams(sigma_rain=0.3, sigma_snow=0.3)
+
+
+# -- the whole detector on rendered scenes --------------------------------------------------------
+def _types(weather: str, *, seed: int, frames: int = 100) -> list[str]:
+    schedule = {"clear": (0.0, 0.0), "rain": (1.0, 0.0), "snow": (0.0, 1.0)}[weather]
+    params = demo_params(640, 360, schedule=lambda i: schedule)
+    scene = Scene(640, 360, seed=seed, params=params)
+    det = HosDetector()
+    out = []
+    for i, (gray, _) in enumerate(scene.frames(0, frames)):
+        r = det.process(gray, i / 25)
+        assert r.precipitation_type == UNKNOWN or r.rain  # a type only with precipitation
+        out.append(r.precipitation_type)
+    return out
+
+
+@pytest.mark.parametrize(("weather", "seed"), [("rain", 5), ("snow", 5), ("clear", 5), ("snow", 6)])
+def test_rendered_rain_is_rain_snow_is_snow_clear_is_unknown(weather: str, seed: int) -> None:
+    types = _types(weather, seed=seed)
+    if weather == "clear":
+        assert set(types) == {UNKNOWN}
+        return
+    other = SNOW if weather == RAIN else RAIN
+    assert other not in types
+    assert types[-20:] == [weather] * 20, types[60:]
+
+
+def test_mixed_rain_and_snow_never_flips_between_the_two() -> None:
+    # rain and snow falling at once: whatever the vote says, it must not flicker between them
+    params = SceneParams(
+        rain=StreakParams(count=200, length_px=7.0, sigma_deg=15.0),
+        snow=SnowParams(count=150),
+        schedule=(1.0, 1.0),
+    )
+    scene = Scene(640, 360, seed=9, params=params)
+    det = HosDetector()
+    types = [
+        det.process(g, i / 25).precipitation_type for i, (g, _) in enumerate(scene.frames(0, 100))
+    ]
+    said = [t for t in types if t != UNKNOWN]
+    assert said, "the mixture is precipitation: something is said after the warm-up"
+    assert len(set(said)) == 1, said
