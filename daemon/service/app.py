@@ -534,10 +534,12 @@ class Daemon:
             changed = state["precipitation"] != precipitation
             if changed or now >= due_state:
                 if changed and precipitation != "unset":
+                    kind = state.get("precipitation_type")
                     log.info(
-                        "site %s: precipitation %s (was %s)%s",
+                        "site %s: precipitation %s%s (was %s)%s",
                         self.site,
                         _WORDS[state["precipitation"]],
+                        f", {kind}" if state["precipitation"] and kind else "",
                         _WORDS[precipitation],
                         f": {state['reason']}" if state.get("reason") else "",
                     )
