@@ -36,6 +36,7 @@ __all__ = [
     "Reading",
     "SerialDefaults",
     "iso_utc",
+    "sensor_zone",
     "with_defaults",
 ]
 
@@ -138,6 +139,26 @@ def with_defaults(options: dict[str, Any], defaults: dict[str, Any], driver: str
     if unknown:
         raise ConfigError(f"options.{unknown[0]}: unknown option for {driver}")
     return {**defaults, **options}
+
+
+def sensor_zone(value: Any, key: str = "options.timezone") -> dt.tzinfo:
+    """The time zone of a sensor's clock: a zone name (``"Europe/Berlin"``, ``"UTC"``) or a
+    fixed offset from UTC in hours (``-6``, ``5.5``, ``"-06:00"``); ConfigError naming ``key``."""
+    import re
+    import zoneinfo
+
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        hours = float(value)
+    elif isinstance(value, str) and (m := re.fullmatch(r"([+-])(\d{1,2}):?(\d{2})?", value)):
+        hours = (int(m[2]) + int(m[3] or 0) / 60) * (-1 if m[1] == "-" else 1)
+    else:
+        try:
+            return zoneinfo.ZoneInfo(str(value))
+        except (zoneinfo.ZoneInfoNotFoundError, ValueError) as exc:
+            raise ConfigError(f"{key}: unknown time zone {value!r}") from exc
+    if not -14 <= hours <= 14:
+        raise ConfigError(f"{key}: an offset from UTC is within -14...+14 hours")
+    return dt.timezone(dt.timedelta(hours=hours))
 
 
 def _clean(value: Any) -> Any:

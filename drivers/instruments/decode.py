@@ -10,10 +10,19 @@ frames are collected in :class:`DecodeStats` with their line number, never fatal
         print(json.dumps(reading.to_json()))
     for line, reason in stats.bad:
         print(f"line {line}: {reason}", file=sys.stderr)
+
+**Clocks.** A reading's ``t`` comes from the most trustworthy clock the capture has: the
+logger's stamp (a prefix on the telegram's line or a line of its own) when there is one, else
+the sensor's own clock; ``time_source`` says which (``logger`` or ``sensor``) and
+``sensor_clock_offset_s`` how far the sensor's clock is from the logger's. ``time="sensor"``
+forces the sensor's clock where the telegram has one (the logger's time is then kept as
+``logger_t``); ``time="logger"`` (the default) takes the logger's where there is one. A
+sensor clock far from the logger's is said once, in ``DecodeStats.notes``.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
@@ -21,9 +30,12 @@ from typing import Any
 
 from drivers.errors import InputError
 
-from .base import DriverSpec, ParseError, Reading
+from .base import DriverSpec, Frame, ParseError, Reading, iso_utc
 
-__all__ = ["DecodeStats", "decode_chunks", "decode_file"]
+__all__ = ["TIME_CHOICES", "DecodeStats", "choose_clock", "decode_chunks", "decode_file"]
+
+#: The clocks ``decode --time`` may force.
+TIME_CHOICES = ("logger", "sensor")
 
 #: Bytes fed to the framer at a time.
 CHUNK_BYTES = 4096
@@ -39,12 +51,14 @@ class DecodeStats:
     readings : frames that parsed
     bad : (line number, reason) of each frame that did not parse, in file order
     garbage_bytes : bytes outside any frame (noise, blank lines, control characters)
+    notes : things said once about the whole file (a sensor clock that is off...)
     """
 
     frames: int = 0
     readings: int = 0
     bad: list[tuple[int, str]] = field(default_factory=list)
     garbage_bytes: int = 0
+    notes: list[str] = field(default_factory=list)
 
 
 def decode_chunks(
@@ -53,6 +67,7 @@ def decode_chunks(
     *,
     options: dict[str, Any] | None = None,
     stats: DecodeStats | None = None,
+    time: str = "logger",
 ) -> Iterator[Reading]:
     """Readings from a byte stream given in chunks of any size.
 
@@ -62,18 +77,21 @@ def decode_chunks(
     chunks : the stream, split anywhere
     options : driver options, checked with ``spec.check_options`` (ConfigError if invalid)
     stats : filled in as the stream is read (complete once the iterator is exhausted)
+    time : ``"logger"`` or ``"sensor"``, the clock that dates a reading when it has both
     """
+    if time not in TIME_CHOICES:
+        raise ValueError(f"time must be one of {TIME_CHOICES}")
     opts = spec.check_options(dict(options or {}))
     stats = stats if stats is not None else DecodeStats()
     framer = spec.make_framer(opts)
     for chunk in chunks:
         for frame in framer.feed(chunk):
-            reading = _parse(spec, frame, opts, stats)
+            reading = _parse(spec, frame, opts, stats, time)
             if reading is not None:
                 yield reading
         stats.garbage_bytes = framer.garbage_bytes
     for frame in framer.flush():
-        reading = _parse(spec, frame, opts, stats)
+        reading = _parse(spec, frame, opts, stats, time)
         if reading is not None:
             yield reading
     stats.garbage_bytes = framer.garbage_bytes
@@ -86,6 +104,7 @@ def decode_file(
     options: dict[str, Any] | None = None,
     stats: DecodeStats | None = None,
     chunk_bytes: int = CHUNK_BYTES,
+    time: str = "logger",
 ) -> Iterator[Reading]:
     """Readings of the file at ``path``, in file order.
 
@@ -104,22 +123,27 @@ def decode_file(
         f = open(path, "rb")  # closed by the generator below
     except OSError as exc:
         raise InputError(f"{path}: {exc.strerror or exc}") from None
-    return _decode_open_file(spec, f, opts, stats, chunk_bytes)
+    return _decode_open_file(spec, f, opts, stats, chunk_bytes, time)
 
 
 def _decode_open_file(
-    spec: DriverSpec, f: Any, opts: dict[str, Any], stats: DecodeStats | None, chunk_bytes: int
+    spec: DriverSpec,
+    f: Any,
+    opts: dict[str, Any],
+    stats: DecodeStats | None,
+    chunk_bytes: int,
+    time: str,
 ) -> Iterator[Reading]:
     with f:
         chunks = iter(lambda: f.read(chunk_bytes), b"")
         try:
-            yield from decode_chunks(spec, chunks, options=opts, stats=stats)
+            yield from decode_chunks(spec, chunks, options=opts, stats=stats, time=time)
         except OSError as exc:
             raise InputError(f"{f.name}: {exc.strerror or exc}") from None
 
 
 def _parse(
-    spec: DriverSpec, frame: Any, opts: dict[str, Any], stats: DecodeStats
+    spec: DriverSpec, frame: Frame, opts: dict[str, Any], stats: DecodeStats, time: str
 ) -> Reading | None:
     stats.frames += 1
     try:
@@ -128,4 +152,77 @@ def _parse(
         stats.bad.append((frame.line, str(exc) or "unreadable frame"))
         return None
     stats.readings += 1
+    reading = choose_clock(reading, frame, time)
+    note = _clock_note(reading)
+    if note is not None and not any(n.startswith("the sensor clock") for n in stats.notes):
+        stats.notes.append(note)
     return reading
+
+
+def choose_clock(reading: Reading, frame: Frame, time: str = "logger") -> Reading:
+    """``reading`` dated by the clock ``time`` asks for, when the reading has it.
+
+    A driver that knows both clocks says which it used in ``extra["time_source"]`` and the
+    sensor's offset in ``extra["sensor_clock_offset_s"]``; for the others, a reading dated
+    by the frame's stamp is the logger's, any other time the sensor's.
+    """
+    extra = dict(reading.extra)
+    source = extra.get("time_source")
+    if source is None and reading.t_ns is not None:
+        source = "logger" if frame.t_ns is not None and reading.t_ns == frame.t_ns else "sensor"
+    offset = extra.get("sensor_clock_offset_s")
+    t_ns = reading.t_ns
+    if time == "sensor" and source == "logger" and offset is not None and t_ns is not None:
+        extra["logger_t"] = iso_utc(t_ns)
+        t_ns, source = t_ns + round(offset * 1e9), "sensor"
+    elif time == "logger" and source == "sensor" and frame.t_ns is not None and t_ns is not None:
+        extra["sensor_clock_offset_s"] = round((t_ns - frame.t_ns) / 1e9, 3)
+        t_ns, source = frame.t_ns, "logger"
+    if source is None and "time_source" not in extra:
+        return reading  # no time at all: nothing to say
+    extra["time_source"] = source
+    return dataclasses.replace(reading, t_ns=t_ns, extra=extra)
+
+
+#: A sensor clock further than this from the logger's is said (once per file).
+CLOCK_TOLERANCE_S = 120.0
+
+
+def _clock_note(reading: Reading) -> str | None:
+    """One line when the sensor's clock is off the logger's, or None."""
+    offset = reading.extra.get("sensor_clock_offset_s")
+    if offset is None or abs(offset) <= CLOCK_TOLERANCE_S or reading.t_ns is None:
+        return None
+    if reading.extra.get("time_source") == "sensor":
+        sensor_ns = reading.t_ns
+        logger_ns = sensor_ns - round(offset * 1e9)
+    else:
+        logger_ns = reading.t_ns
+        sensor_ns = logger_ns + round(offset * 1e9)
+    hours = offset / 3600
+    if 0.5 <= abs(hours) <= 14 and abs(offset - round(hours) * 3600) <= CLOCK_TOLERANCE_S:
+        how = (
+            f"looks like UTC{round(hours):+d} (a clock in local time? "
+            f"--option timezone={round(hours):+d} reads it so)"
+        )
+    else:
+        how = f"is off by {_span(offset)}"
+    return (
+        f"the sensor clock {how}: it says {iso_utc(sensor_ns)} where the logger says "
+        f"{iso_utc(logger_ns)}; readings are dated by the "
+        f"{reading.extra.get('time_source')}'s clock"
+    )
+
+
+def _span(seconds: float) -> str:
+    """``3 h 30 min 27 s``, ``5 years 2 days``: a duration for people."""
+    s = abs(seconds)
+    sign = "-" if seconds < 0 else "+"
+    if s >= 2 * 86400:
+        days = int(s // 86400)
+        years, days = divmod(days, 365)
+        return sign + (f"{years} year(s) {days} day(s)" if years else f"{days} day(s)")
+    h, rest = divmod(round(s), 3600)
+    m, sec = divmod(rest, 60)
+    parts = [f"{h} h"] * bool(h) + [f"{m} min"] * bool(m) + [f"{sec} s"] * bool(sec or not (h or m))
+    return sign + " ".join(parts)

@@ -47,7 +47,15 @@ from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
+from .base import (
+    DriverSpec,
+    Frame,
+    ParseError,
+    Reading,
+    SerialDefaults,
+    sensor_zone,
+    with_defaults,
+)
 from .framing import PREFIX_ISO, PREFIX_YMDHMS, LineFramer, first_prefix, is_blank, regex_prefix
 
 __all__ = ["DEFAULT_FIELDS", "DRIVER", "ParsivelFramer", "check_options", "parse"]
@@ -58,7 +66,12 @@ DEFAULT_FIELDS: tuple[int, ...] = (
     *(1, 2, 3, 7, 8, 9, 10, 11, 12, 13, 14, 16, 17, 18, 22, 24, 25),
     *(90, 91, 93),
 )
-DEFAULTS: dict[str, Any] = {"fields": DEFAULT_FIELDS, "separator": ";", "logger_prefix": True}
+DEFAULTS: dict[str, Any] = {
+    "fields": DEFAULT_FIELDS,
+    "separator": ";",
+    "logger_prefix": True,
+    "timezone": "UTC",
+}
 
 #: value number -> (kind, Reading field or extra key). Kinds: f float, i int, s text.
 _VALUES: dict[int, tuple[str, str]] = {
@@ -113,7 +126,8 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
 
     Keys: ``fields`` (the telegram's value numbers in order, default the Lindenberg
     logger's), ``separator`` (one character, ``;``), ``logger_prefix`` (bool: lines may
-    start with a ``YYYYMMDDhhmmss`` timestamp).
+    start with a logger's timestamp), ``timezone`` (the sensor clock's zone, a name or hours
+    from UTC such as ``-6``; default UTC).
     """
     out = with_defaults(options, DEFAULTS, NAME)
     fields = out["fields"]
@@ -130,6 +144,7 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
         raise ConfigError("options.separator: expected one character (not CR, LF or /)")
     if not isinstance(out["logger_prefix"], bool):
         raise ConfigError("options.logger_prefix: expected true or false")
+    sensor_zone(out["timezone"])
     return out
 
 
@@ -229,7 +244,7 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
         raw = _answer_values(text)  # with its TYP line, or without (a logger's layout)
     else:
         raw = _telegram_values(text, o["fields"], o["separator"])
-    return _reading(raw, frame.t_ns)
+    return _reading(raw, frame.t_ns, o["timezone"])
 
 
 def _answer_values(text: str) -> dict[int, str]:
@@ -268,7 +283,7 @@ def _width(num: int, first: str) -> int:
     return _VECTORS.get(num, 1)
 
 
-def _reading(raw: dict[int, str], t_ns: int | None) -> Reading:
+def _reading(raw: dict[int, str], t_ns: int | None, zone: Any = "UTC") -> Reading:
     values: dict[str, Any] = {}
     for num, text in raw.items():
         if num not in _VALUES:
@@ -284,7 +299,7 @@ def _reading(raw: dict[int, str], t_ns: int | None) -> Reading:
     status = values.pop("status", None)
     error = values.get("error_code")
     codes = [c for c in (status, error) if c is not None]
-    sensor_ns = _sensor_clock(values.get("sensor_date"), values.get("sensor_time"))
+    sensor_ns = _sensor_clock(values.get("sensor_date"), values.get("sensor_time"), zone)
     # The most trustworthy clock: the logger's (or the receiver's, live), else the sensor's.
     values["time_source"] = "sensor" if t_ns is None else "logger"
     if t_ns is None:
@@ -325,14 +340,21 @@ def _convert(kind: str, text: str, num: int) -> Any:
     return value
 
 
-def _sensor_clock(date: str | None, time: str | None) -> int | None:
+#: The sensor's date (value 21) as sensors and loggers write it.
+_DATE_FORMATS = ("%d.%m.%Y", "%d.%m.%y", "%Y/%m/%d", "%Y-%m-%d", "%d/%m/%Y")
+
+
+def _sensor_clock(date: str | None, time: str | None, zone: Any = "UTC") -> int | None:
+    """Values 21 + 20 in the sensor's zone, as UTC ns; None when absent or unreadable."""
     if not date or not time:
         return None
-    try:
-        t = dt.datetime.strptime(f"{date} {time}", "%d.%m.%Y %H:%M:%S").replace(tzinfo=dt.UTC)
-    except ValueError:
-        return None
-    return int(t.timestamp()) * 1_000_000_000
+    for fmt in _DATE_FORMATS:
+        try:
+            t = dt.datetime.strptime(f"{date.strip()} {time.strip()}", f"{fmt} %H:%M:%S")
+        except ValueError:
+            continue
+        return int(t.replace(tzinfo=sensor_zone(zone)).timestamp()) * 1_000_000_000
+    return None
 
 
 DRIVER = DriverSpec(

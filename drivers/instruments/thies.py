@@ -53,12 +53,19 @@ from __future__ import annotations
 
 import datetime as dt
 import re
-import zoneinfo
 from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
+from .base import (
+    DriverSpec,
+    Frame,
+    ParseError,
+    Reading,
+    SerialDefaults,
+    sensor_zone,
+    with_defaults,
+)
 from .framing import DelimitedOrLineFramer
 
 __all__ = ["DRIVER", "check_options", "checksum", "make_framer", "parse", "poll_command"]
@@ -70,7 +77,7 @@ DEFAULTS: dict[str, Any] = {
     "device_id": 0,
     "telegram": 4,
     "checksum": "auto",
-    "clock": "instrument",
+    "clock": "auto",
     "timezone": "UTC",
     "n_fields": None,
 }
@@ -115,21 +122,13 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
             raise ConfigError(f"options.{key}: expected an integer in {low}...{high}")
     if out["checksum"] not in ("auto", "require", "ignore"):
         raise ConfigError('options.checksum: expected "auto", "require" or "ignore"')
-    if out["clock"] not in ("instrument", "receiver"):
-        raise ConfigError('options.clock: expected "instrument" or "receiver"')
-    out["timezone"] = _check_zone(out["timezone"])
+    if out["clock"] not in ("auto", "instrument", "receiver"):
+        raise ConfigError('options.clock: expected "auto", "instrument" or "receiver"')
+    sensor_zone(out["timezone"])
     n = out["n_fields"]
     if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < MIN_FIELDS):
         raise ConfigError(f"options.n_fields: expected an integer >= {MIN_FIELDS}")
     return out
-
-
-def _check_zone(name: Any) -> str:
-    try:
-        zoneinfo.ZoneInfo(str(name))
-    except (zoneinfo.ZoneInfoNotFoundError, ValueError) as exc:
-        raise ConfigError(f"options.timezone: unknown time zone {name!r}") from exc
-    return str(name)
 
 
 def make_framer(options: dict[str, Any]) -> DelimitedOrLineFramer:
@@ -195,9 +194,7 @@ def _verify(raw: bytes, cs: str, mode: str) -> None:
 def _reading(v: list[str], frame: Frame, options: dict[str, Any]) -> Reading:
     if not v[0].strip().isdigit():
         raise ParseError(f"bad device address {v[0][:8]!r}")
-    t_ns = frame.t_ns
-    if options["clock"] == "instrument":
-        t_ns = _time_ns(v[3], v[4], options["timezone"])
+    t_ns, clocks = _clock(v, frame, options)
     status_values = [_int(x, "status") for x in v[STATUS_FROM : STATUS_FROM + len(STATUS_NAMES)]]
     status, fault = _status(status_values)
     extra: dict[str, Any] = {
@@ -210,6 +207,7 @@ def _reading(v: list[str], frame: Frame, options: dict[str, Any]) -> Reading:
         "rain_rate_5min_mm_h": _float(v[8], "intensity 5min"),
         "rain_rate_liquid_mm_h": _float(v[13], "liquid intensity"),
         "rain_rate_solid_mm_h": _float(v[14], "solid intensity"),
+        **clocks,
     }
     optional = (
         (17, "reflectivity_dbz"),
@@ -247,7 +245,27 @@ def _status(values: list[int | None]) -> tuple[str | None, bool | None]:
     return (",".join(names) if names else "ok"), fault
 
 
-def _time_ns(date: str, time: str, zone: str) -> int:
+def _clock(v: list[str], frame: Frame, options: dict[str, Any]) -> tuple[int | None, dict]:
+    """The reading's time and what says which clock gave it.
+
+    ``clock = "auto"``: the logger's stamp (or, live, the receive time) when the frame has
+    one, else the sensor's clock; ``"instrument"``: the sensor's; ``"receiver"``: the frame's.
+    A sensor date that cannot be read is a ParseError only when nothing else dates the reading.
+    """
+    mode, logger_ns = options["clock"], frame.t_ns
+    if mode == "receiver":
+        return logger_ns, {"time_source": "logger" if logger_ns is not None else None}
+    if mode == "instrument" or logger_ns is None:
+        return _time_ns(v[3], v[4], options["timezone"]), {"time_source": "sensor"}
+    try:
+        sensor_ns = _time_ns(v[3], v[4], options["timezone"])
+    except ParseError:
+        return logger_ns, {"time_source": "logger"}
+    offset = round((sensor_ns - logger_ns) / 1e9, 3)
+    return logger_ns, {"time_source": "logger", "sensor_clock_offset_s": offset}
+
+
+def _time_ns(date: str, time: str, zone: str | float) -> int:
     d, t = _DATE.fullmatch(date.strip()), _TIME.fullmatch(time.strip())
     if d is None or t is None:
         raise ParseError(f"bad date/time {date[:12]!r} {time[:10]!r}")
@@ -255,7 +273,7 @@ def _time_ns(date: str, time: str, zone: str) -> int:
     try:
         local = dt.datetime(
             year, int(d[2]), int(d[1]), int(t[1]), int(t[2]), int(t[3]),
-            tzinfo=zoneinfo.ZoneInfo(zone),
+            tzinfo=sensor_zone(zone),
         )  # fmt: skip
     except ValueError as exc:
         raise ParseError(f"impossible date/time {date} {time}") from exc
