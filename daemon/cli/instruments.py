@@ -35,7 +35,12 @@ def _instruments_decode(args: argparse.Namespace) -> int:
     stats = DecodeStats()
     try:
         readings = decode_file(
-            DRIVERS[args.driver], args.file, options=options, stats=stats, time=args.time
+            DRIVERS[args.driver],
+            args.file,
+            options=options,
+            stats=stats,
+            time=args.time,
+            checksum=args.checksum or "auto",
         )
     except ConfigError as exc:
         raise ConfigError(f"--option: {exc}") from None
@@ -106,5 +111,14 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         default="logger",
         help="the clock that dates a reading when the capture has both: the logger's stamp "
         "(default) or the sensor's own clock; each line says which in time_source",
+    )
+    decode.add_argument(
+        "--checksum",
+        choices=("enforce", "report", "ignore"),
+        default=None,
+        help="telegram checksums (thies-lnm): refuse a telegram that fails (enforce), keep "
+        "it and say so in checksum_ok (report), or do not look (ignore). Default: enforce, "
+        "unless every telegram of the file fails the same way (a convention of the sensor or "
+        "its logger, said once): then report",
     )
     decode.set_defaults(handler=_instruments_decode)

@@ -203,5 +203,9 @@ class DriverSpec:
     #: The bytes that ask the instrument for one message, in polled mode.
     poll_command: Callable[[dict[str, Any]], bytes] | None = None
     check_options: Callable[[dict[str, Any]], dict[str, Any]] = dict
+    #: The driver's option ``checksum`` takes "report" (each reading says whether its
+    #: checksum matched, ``checksum_ok``, and by how much it is off, ``checksum_offset``)
+    #: and "ignore": ``weatherd instruments decode --checksum`` drives it.
+    reports_checksum: bool = False
     #: One line for ``weatherd instruments decode --help`` and the docs.
     description: str = ""

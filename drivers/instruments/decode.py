@@ -32,7 +32,20 @@ from drivers.errors import InputError
 
 from .base import DriverSpec, Frame, ParseError, Reading, iso_utc
 
-__all__ = ["TIME_CHOICES", "DecodeStats", "choose_clock", "decode_chunks", "decode_file"]
+__all__ = [
+    "CHECKSUM_CHOICES",
+    "TIME_CHOICES",
+    "DecodeStats",
+    "checksum_convention",
+    "choose_clock",
+    "decode_chunks",
+    "decode_file",
+]
+
+#: ``decode --checksum``: refuse a telegram whose checksum fails, keep it and say so in the
+#: reading (``checksum_ok``), or do not look; ``auto`` (files): enforce, unless every
+#: telegram of the file fails the same way (a convention, said once): then report.
+CHECKSUM_CHOICES = ("auto", "enforce", "report", "ignore")
 
 #: The clocks ``decode --time`` may force.
 TIME_CHOICES = ("logger", "sensor")
@@ -105,11 +118,16 @@ def decode_file(
     stats: DecodeStats | None = None,
     chunk_bytes: int = CHUNK_BYTES,
     time: str = "logger",
+    checksum: str = "auto",
 ) -> Iterator[Reading]:
     """Readings of the file at ``path``, in file order.
 
     The options are checked and the file opened at once (before the first reading is
-    asked for), so a missing file raises here.
+    asked for), so a missing file raises here. ``checksum`` (one of
+    :data:`CHECKSUM_CHOICES`) applies to drivers with ``reports_checksum``; with ``auto``,
+    a file whose telegrams all fail their checksum by the same offset is read first to
+    find it out (:func:`checksum_convention`), then decoded as with ``report``, and
+    ``stats.notes`` says so once.
 
     Raises
     ------
@@ -118,12 +136,63 @@ def decode_file(
     """
     if chunk_bytes < 1:
         raise ValueError("chunk_bytes must be >= 1")
-    opts = spec.check_options(dict(options or {}))
+    if checksum not in CHECKSUM_CHOICES:
+        raise ValueError(f"checksum must be one of {CHECKSUM_CHOICES}")
+    options = dict(options or {})
+    spec.check_options(options)
+    if spec.reports_checksum and checksum != "enforce" and "checksum" not in options:
+        if checksum == "auto":
+            stats = stats if stats is not None else DecodeStats()
+            note = checksum_convention(spec, path, options=options, chunk_bytes=chunk_bytes)
+            if note is not None:
+                stats.notes.append(note)
+                options["checksum"] = "report"
+        else:
+            options["checksum"] = checksum
+    opts = spec.check_options(options)
     try:
         f = open(path, "rb")  # closed by the generator below
     except OSError as exc:
         raise InputError(f"{path}: {exc.strerror or exc}") from None
     return _decode_open_file(spec, f, opts, stats, chunk_bytes, time)
+
+
+def checksum_convention(
+    spec: DriverSpec,
+    path: str | os.PathLike[str],
+    *,
+    options: dict[str, Any] | None = None,
+    chunk_bytes: int = CHUNK_BYTES,
+) -> str | None:
+    """One line when every checksummed telegram of the file (two at least) fails its
+    checksum by the same offset: a convention of the sensor or its logger, not corruption
+    (random corruption gives random offsets). None otherwise, or for a driver that cannot
+    report its checksums.
+    """
+    if not spec.reports_checksum:
+        return None
+    opts = {**(options or {}), "checksum": "report"}
+    offsets: set[str | None] = set()
+    n = 0
+    for reading in decode_file(
+        spec, path, options=opts, chunk_bytes=chunk_bytes, checksum="ignore"
+    ):
+        ok = reading.extra.get("checksum_ok")
+        if ok is None:
+            continue
+        n += 1
+        offsets.add(None if ok else reading.extra.get("checksum_offset"))
+        if len(offsets) > 1 or None in offsets:
+            return None
+    if n < 2:
+        return None
+    (offset,) = offsets
+    return (
+        f"all {n} telegrams fail their checksum the same way (each is the manual's sum "
+        f"+ 0x{offset}): a convention of this sensor or its logger, not corruption; they are "
+        "decoded with checksum_ok false (--checksum report says it for each reading, "
+        "--checksum enforce refuses them)"
+    )
 
 
 def _decode_open_file(

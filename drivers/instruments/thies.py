@@ -29,11 +29,15 @@ the column numbers are the manual's, counting STX as column 1)::
     521-524 519-522 optional external sensors (temperature, humidity, wind speed, direction)
     last        checksum, 2 hex digits, then CR LF ETX
 
-Checksum (manual footnote): the two's complement of the sum of all characters, control
-characters included, without the checksum itself; its lowest byte as two hex digits. The
-footnote lists ETX/CR/LF among the summed characters although they follow the checksum, so
-both readings are accepted: the sum from STX up to the ``;`` before the checksum, or with the
-trailing bytes of the frame (or CR LF ETX) added. A checksum is present when the field count
+Checksum (manual 021341/07/11, footnote 8 of telegram 4): the two's complement of the sum of
+all characters, control characters included, without the checksum itself; its lowest byte as
+two hex digits. The footnote lists ETX/CR/LF among the summed characters although they follow
+the checksum, so both readings are accepted: the sum from STX up to the ``;`` before the
+checksum, or with the trailing bytes of the frame (or CR LF ETX) added. Real sensors write
+it a constant away from that rule (see :func:`checksum_offset`); option ``checksum``:
+``auto`` (verify when present, the default and what the live reader does), ``require``,
+``report`` (verify, never refuse: ``checksum_ok`` and ``checksum_offset`` in the reading),
+``ignore``. A checksum is present when the field count
 says so (520 or 524 values); loggers also store shortened telegrams (Leipzig's LIM keeps
 columns 2-23, cloudnetpy's ``truncate_columns``): any prefix of 17 to 79 values is read, a
 count between the prefix and the full telegram is a ParseError.
@@ -68,7 +72,15 @@ from .base import (
 )
 from .framing import DelimitedOrLineFramer
 
-__all__ = ["DRIVER", "check_options", "checksum", "make_framer", "parse", "poll_command"]
+__all__ = [
+    "DRIVER",
+    "check_options",
+    "checksum",
+    "checksum_offset",
+    "make_framer",
+    "parse",
+    "poll_command",
+]
 
 NAME = "thies-lnm"
 STX, ETX = b"\x02", b"\x03"
@@ -107,6 +119,10 @@ MIN_FIELDS = 17  # up to the visibility
 PREFIX_MAX = 79  # everything before the spectrum
 FULL_COUNTS = {519: False, 520: True, 523: False, 524: True}  # count -> has a checksum
 
+#: ``checksum``: verify when present, require one, verify and say it in the reading
+#: (``checksum_ok``, ``checksum_offset``) without refusing it, or do not verify.
+CHECKSUM_MODES = ("auto", "require", "report", "ignore")
+
 _DATE = re.compile(r"(\d{2})\.(\d{2})\.(\d{2}|\d{4})")
 _TIME = re.compile(r"(\d{2}):(\d{2}):(\d{2})")
 _HEX2 = re.compile(r"[0-9A-Fa-f]{2}")
@@ -120,8 +136,8 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
         value = out[key]
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise ConfigError(f"options.{key}: expected an integer in {low}...{high}")
-    if out["checksum"] not in ("auto", "require", "ignore"):
-        raise ConfigError('options.checksum: expected "auto", "require" or "ignore"')
+    if out["checksum"] not in CHECKSUM_MODES:
+        raise ConfigError('options.checksum: expected "auto", "require", "report" or "ignore"')
     if out["clock"] not in ("auto", "instrument", "receiver"):
         raise ConfigError('options.clock: expected "auto", "instrument" or "receiver"')
     sensor_zone(out["timezone"])
@@ -165,30 +181,59 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
             raise ParseError(f"wrong field count {n} (options.n_fields = {options['n_fields']})")
     elif n not in FULL_COUNTS and not MIN_FIELDS <= n <= PREFIX_MAX:
         raise ParseError(f"wrong field count {n} for telegram 4")
+    mode = options["checksum"]
+    report: dict[str, Any] = {}
     if has_checksum:
-        _verify(raw, values[-1].strip(), options["checksum"])
+        offset = None if mode == "ignore" else checksum_offset(raw, values[-1].strip())
+        if offset is not None and mode != "report":
+            manual = checksum(_summed(raw, values[-1].strip()))
+            raise ParseError(
+                f"checksum mismatch: telegram says {values[-1].strip()}, computed {manual} "
+                "(two's complement of the byte sum from STX to the ';' before it)"
+            )
+        if mode == "report":
+            report = {"checksum_ok": offset is None}
+            if offset is not None:
+                report["checksum_offset"] = f"{offset:02X}"
         values = values[:-1]
-    elif options["checksum"] == "require":
+    elif mode == "require":
         raise ParseError("no checksum in the telegram")
-    return _reading(values, frame, options)
+    elif mode == "report":
+        report = {"checksum_ok": None}
+    reading = _reading(values, frame, options)
+    if report:
+        reading.extra.update(report)
+    return reading
 
 
-def _verify(raw: bytes, cs: str, mode: str) -> None:
-    if mode == "ignore":
-        return
+def _summed(raw: bytes, cs: str) -> bytes:
+    """The bytes the manual's checksum covers: STX up to the ``;`` before the checksum."""
+    at = raw.rfind(b";" + cs.encode("ascii")) + 1
+    before = raw[:at]
+    return before[before.index(STX) :] if STX in before else STX + before
+
+
+def checksum_offset(raw: bytes, cs: str) -> int | None:
+    """None when the telegram's checksum ``cs`` matches, else how far it is from the
+    manual's rule: ``(cs - computed) mod 256``.
+
+    The manual's rule is summed from STX to the ``;`` before the checksum (STX added back
+    where a logger stripped it); the sum with the trailing CR LF ETX, which the manual's
+    footnote also lists, is accepted too. Every real capture found so far (five files of four
+    sensors, firmware 2.52 to 2.70, cloudnetpy's tests) carries a checksum a constant away
+    from this rule (0xAB for 520 values, 0xA5 with the four external-sensor values): the
+    same offset on every telegram of a file is a convention, not corruption
+    (``drivers.instruments.decode`` says so once).
+    """
     if _HEX2.fullmatch(cs) is None:
         raise ParseError(f"bad checksum field {cs[:8]!r}")
+    summed = _summed(raw, cs)
     at = raw.rfind(b";" + cs.encode("ascii")) + 1
-    before, after = raw[:at], raw[at + 2 :]
-    candidates = {
-        checksum(before),
-        checksum(before + after),
-        checksum(before + b"\r\n\x03"),
-    }
-    if STX not in raw:  # a logger stripped STX: the sensor summed it
-        candidates.add(checksum(STX + before))
-    if cs.upper() not in candidates:
-        raise ParseError(f"checksum mismatch: telegram says {cs}, computed {checksum(before)}")
+    after = raw[at + 2 :]
+    candidates = {checksum(summed), checksum(summed + after), checksum(summed + b"\r\n\x03")}
+    if cs.upper() in candidates:
+        return None
+    return (int(cs, 16) - int(checksum(summed), 16)) & 0xFF
 
 
 def _reading(v: list[str], frame: Frame, options: dict[str, Any]) -> Reading:
@@ -313,5 +358,6 @@ DRIVER = DriverSpec(
     modes=("automatic", "polled"),
     poll_command=poll_command,
     check_options=check_options,
+    reports_checksum=True,
     description="Thies Clima LNM/LPM laser disdrometer, telegram 4 (STX…ETX, checksum)",
 )

@@ -153,3 +153,21 @@ def test_time_option_picks_the_clock_and_the_off_clock_is_said_once(tmp_path: Pa
     assert {(r["t"], r["time_source"], r["logger_t"]) for r in got["sensor"]} == {
         ("2024-01-14T00:30:27Z", "sensor", "2024-01-14T00:00:00Z")
     }
+
+
+DATA = Path(__file__).parents[2] / "drivers" / "instruments" / "data"
+
+
+def test_a_checksum_convention_is_said_once_and_the_readings_kept() -> None:
+    capture = DATA / "thies_2025060200.txt"
+    proc = decode("--driver", "thies-lnm", capture)
+    assert proc.returncode == 0, proc.stderr
+    assert len(proc.stdout.splitlines()) == 3
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 2 and "fail their checksum the same way" in lines[0], proc.stderr
+    assert "3 readings, 0 bad frame(s)" in lines[1]
+    proc = decode("--driver", "thies-lnm", capture, "--checksum", "enforce")
+    assert proc.stdout == "" and "3 bad frame(s)" in proc.stderr
+    proc = decode("--driver", "thies-lnm", capture, "--checksum", "report")
+    assert [json.loads(line)["checksum_ok"] for line in proc.stdout.splitlines()] == [False] * 3
+    assert "same way" not in proc.stderr
