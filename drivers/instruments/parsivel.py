@@ -262,13 +262,13 @@ def _telegram_values(text: str, fields: Sequence[int], sep: str) -> dict[int, st
     tokens = text.strip(_CONTROL).split(sep)
     if tokens and tokens[-1].strip() == "":
         tokens.pop()  # the separator that ends a telegram
-    need = sum(_width(num, "/") for num in fields)
+    need = sum(_VECTORS.get(num, 1) for num in fields)
     raw: dict[int, str] = {}
     i = 0
     for num in fields:
         if i >= len(tokens):
             raise ParseError(f"expected {need} values, got {len(tokens)}")
-        width = _width(num, tokens[i])
+        width = _width(num, tokens, i)
         raw[num] = sep.join(tokens[i : i + width])
         i += width
     if i != len(tokens):
@@ -276,10 +276,21 @@ def _telegram_values(text: str, fields: Sequence[int], sep: str) -> dict[int, st
     return raw
 
 
-def _width(num: int, first: str) -> int:
-    """Tokens taken by value ``num`` whose first token is ``first``."""
-    if num == 93 and ("/" in first or first.startswith("<SPECTRUM>")):
-        return 1  # one "/"-separated field, or "<SPECTRUM>ZERO</SPECTRUM>"
+def _width(num: int, tokens: list[str], i: int) -> int:
+    """Tokens taken by value ``num`` starting at ``tokens[i]``.
+
+    The spectrum (93) is one ``/``-separated field, or ``<SPECTRUM>ZERO</SPECTRUM>``, or
+    ``<SPECTRUM>`` then its values (empty for 0) up to the token ending ``</SPECTRUM>``: the
+    rows where it rains.
+    """
+    first = tokens[i]
+    if num == 93 and first.startswith("<SPECTRUM>"):
+        for j in range(i, len(tokens)):
+            if tokens[j].rstrip().endswith("</SPECTRUM>"):
+                return j - i + 1
+        raise ParseError("<SPECTRUM> without </SPECTRUM>: the telegram is cut")
+    if num == 93 and "/" in first:
+        return 1
     return _VECTORS.get(num, 1)
 
 
