@@ -56,11 +56,17 @@ class Frame:
     t_ns : int or None, UTC ns from a logger's timestamp prefix; None for a raw serial stream
         (the reader then stamps the receive time)
     line : int, 1-based line number in a file where the frame starts (0 when not from a file)
+    fields : what each column of a row holds, when a header line in the file named the
+        columns (the driver's value numbers; drivers give their own codes to a time column
+        or one to skip); None for a telegram laid out as the driver's options say
+    separator : the column separator of such a row (``;``, ``,``...)
     """
 
     data: bytes
     t_ns: int | None = None
     line: int = 0
+    fields: tuple[int, ...] | None = None
+    separator: str | None = None
 
 
 class Framer(Protocol):

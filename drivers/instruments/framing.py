@@ -26,6 +26,7 @@ from .base import Frame
 __all__ = [
     "PREFIX_DMY_HMS",
     "PREFIX_ISO",
+    "PREFIX_TOA5",
     "PREFIX_YMDHMS",
     "DelimitedFramer",
     "LineFramer",
@@ -33,15 +34,24 @@ __all__ = [
     "first_prefix",
     "is_blank",
     "regex_prefix",
+    "unix_prefix",
 ]
 
 #: ``prefix(line) -> (t_ns or None, rest of the line)``; ``(None, line)`` when absent.
 PrefixParser = Callable[[bytes], tuple[int | None, bytes]]
 
-#: ``20231204000047;`` (OTT/Campbell style loggers), separator ``;``, ``,`` or blanks.
+#: ``20231204000047;`` (OTT/Campbell style loggers), ``20190410230720.646;`` with
+#: milliseconds; separator ``;``, ``,`` or blanks.
 PREFIX_YMDHMS = (
     rb"(?P<year>\d{4})(?P<month>\d{2})(?P<day>\d{2})"
-    rb"(?P<hour>\d{2})(?P<minute>\d{2})(?P<second>\d{2})[;, \t]"
+    rb"(?P<hour>\d{2})(?P<minute>\d{2})(?P<second>\d{2})(?:\.(?P<fraction>\d{1,9}))?[;, \t]"
+)
+#: A Campbell TOA5 row: ``"2024-04-14 00:01:00",552609,`` (TIMESTAMP, RECORD), and the
+#: opening quote of a telegram its table stores as a string.
+PREFIX_TOA5 = (
+    rb'"(?P<year>\d{4})-(?P<month>\d{2})-(?P<day>\d{2}) '
+    rb'(?P<hour>\d{2}):(?P<minute>\d{2})(?::(?P<second>\d{2})(?:\.(?P<fraction>\d{1,9}))?)?",'
+    rb'\d+,"?'
 )
 #: ``[2024-01-14 00:00:00``, ``2024-01-14T00:00:00.250Z;``, ``2019/11/15 10:00:00``: ISO-like
 #: logger stamps, bracketed or not, before a telegram on the same line or alone on a line.
@@ -72,6 +82,23 @@ def first_prefix(*parsers: PrefixParser) -> PrefixParser:
         return None, line
 
     return parse
+
+
+_UNIX = re.compile(rb"(?P<s>1\d{9})(?:(?P<ms>\d{3})|\.(?P<fraction>\d{1,9}))?[;, \t]")
+
+
+def unix_prefix(line: bytes) -> tuple[int | None, bytes]:
+    """A logger's Unix time before the telegram: ``1702166447;`` (seconds, 2001...2286),
+    ``1702166447.250;`` or ``1702166447250;`` (milliseconds). UTC by definition."""
+    m = _UNIX.match(line)
+    if m is None:
+        return None, line
+    t_ns = int(m["s"]) * 1_000_000_000
+    if m["ms"]:
+        t_ns += int(m["ms"]) * 1_000_000
+    elif m["fraction"]:
+        t_ns += int(m["fraction"].decode().ljust(9, "0")[:9])
+    return t_ns, line[m.end() :]
 
 
 def is_blank(line: bytes) -> bool:

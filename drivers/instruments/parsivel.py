@@ -56,7 +56,16 @@ from .base import (
     sensor_zone,
     with_defaults,
 )
-from .framing import PREFIX_ISO, PREFIX_YMDHMS, LineFramer, first_prefix, is_blank, regex_prefix
+from .framing import (
+    PREFIX_ISO,
+    PREFIX_TOA5,
+    PREFIX_YMDHMS,
+    LineFramer,
+    first_prefix,
+    is_blank,
+    regex_prefix,
+    unix_prefix,
+)
 
 __all__ = ["DEFAULT_FIELDS", "DRIVER", "ParsivelFramer", "check_options", "parse"]
 
@@ -117,7 +126,60 @@ _READING_FIELDS |= {"visibility_m", "temperature_c"}
 _SENTINEL = -9.999
 _KEY_LINE = re.compile(r"(\d{2}):(.*)")
 #: The logger stamps a Parsivel capture may carry, alone on a line or before a telegram.
-_LOGGER_PREFIX = first_prefix(regex_prefix(PREFIX_YMDHMS), regex_prefix(PREFIX_ISO))
+_ISO = regex_prefix(PREFIX_ISO)
+_LOGGER_PREFIX = first_prefix(
+    regex_prefix(PREFIX_YMDHMS), _ISO, regex_prefix(PREFIX_TOA5), unix_prefix
+)
+
+#: Column codes of a header CSV besides value numbers: the logger's time, its record
+#: number, a column the reading does not use.
+TIME_COLUMN, RECORD_COLUMN, SKIP_COLUMN = -1, -2, 0
+#: Column names that loggers write in a header line (pyAtmosLogger-style CSVs, Campbell TOA5
+#: tables, OTT's ASDO export), lower case, without non-ASCII characters, -> value number.
+_HEADER_NAMES: dict[str, int] = {
+    name: num
+    for num, names in {
+        TIME_COLUMN: ("timestamp", "datetime_utc", "datetime [utc]", "datetime"),
+        RECORD_COLUMN: ("record",),
+        1: ("rain rate [mm/h]", "rainintensity", "rain_intensity",
+            "intensity of precipitation (mm/h)"),
+        2: ("rain accum [mm]", "accprec", "precipitation since start (mm)"),
+        3: ("wawa", "weathercodewawa", "weather_code_wawa", "weather code synop wawa"),
+        4: ("wawa [ww]",),
+        5: ("wawa [metar]", "weather code metar/speci"),
+        6: ("wawa [nws]", "weather code nws"),
+        7: ("z [dbz]", "radarreflectivity", "radar_reflectivity", "radar reflectivity (dbz)"),
+        8: ("mor visibility [m]", "morvisibility", "mor_visibility", "mor visibility (m)"),
+        9: ("sample interval [s]",),
+        10: ("signal amplitude", "signalamplitude", "signal amplitude of laserband"),
+        11: ("number of detected particles", "numberparticles", "number_particles"),
+        12: ("temperature sensor [c]", "sensortemperature", "sensor_temperature",
+             "temperature in sensor (c)"),
+        13: ("serial number",),
+        14: ("iop firmware version",),
+        15: ("dsp firmware version",),
+        16: ("current heating system [a]", "heatingcurrent", "heating current (a)"),
+        17: ("power supply voltage in the sensor [v]", "sensorvoltage", "sensor voltage (v)"),
+        18: ("sensor status", "sensorstatus", "optics status"),
+        20: ("sensor time [hh:mm:ss]", "time"),
+        21: ("sensor date [dd.mm.yy]", "date"),
+        22: ("station name",),
+        23: ("station number",),
+        24: ("rain amount absolute [mm]",),
+        25: ("error code", "errorcode"),
+        26: ("temperature pcb [c]", "pbctemperature"),
+        27: ("temperature right sensor head [c]", "righttemperature"),
+        28: ("temperature left sensor head [c]", "lefttemperature"),
+        34: ("kinetic energy [j m-2 h-1)]", "kineticenergy", "kinetic energy"),
+        35: ("snow depth intensity (vol equiv.) [mm/h]", "snowintensity",
+             "snow intensity (mm/h)"),
+        60: ("number of particles",),
+        93: ("spectrum",),
+    }.items()
+    for name in names
+}  # fmt: skip
+#: A line naming at least this many known columns is a header line.
+_MIN_HEADER_NAMES = 3
 _CONTROL = "".join(map(chr, range(33)))
 
 
@@ -156,7 +218,7 @@ class ParsivelFramer:
     line that is not ``NN:value``, or :meth:`flush`; its frame is the lines joined by CR LF.
     """
 
-    def __init__(self, *, logger_prefix: bool = True, max_line_bytes: int = 16384) -> None:
+    def __init__(self, *, logger_prefix: bool = True, max_line_bytes: int = 65536) -> None:
         self._lines = LineFramer(
             prefix=_LOGGER_PREFIX if logger_prefix else None,
             max_line_bytes=max_line_bytes,
@@ -166,6 +228,9 @@ class ParsivelFramer:
         self._block: list[Frame] = []
         self._blank_bytes = 0
         self._stamp: int | None = None  # a logger's stamp alone on a line: the next telegram's
+        self._header: tuple[tuple[int, ...], str] | None = None  # a header line's columns
+        self._skip = 0  # TOA5: the units and processing lines after the header
+        self._toa5 = False
 
     @property
     def garbage_bytes(self) -> int:
@@ -183,6 +248,14 @@ class ParsivelFramer:
         frames: list[Frame] = []
         for line in lines:
             text = line.data
+            if self._skip and line.t_ns is None:
+                self._skip -= 1  # header lines are neither frames nor garbage
+                continue
+            if line.t_ns is None and not self._block and self._header_line(text):
+                continue
+            if self._header is not None and not is_blank(text):
+                frames.append(self._row(line))
+                continue
             if is_blank(text):
                 self._blank_bytes += len(line.data)
                 self._close_block(frames)
@@ -201,6 +274,33 @@ class ParsivelFramer:
                 self._close_block(frames)
                 frames.append(self._stamped(line))
         return frames
+
+    def _header_line(self, text: bytes) -> bool:
+        """True when ``text`` is a TOA5 file's first line or a header line naming columns
+        (then the rows that follow are read by their names)."""
+        if text.startswith(b'"TOA5"'):
+            self._toa5 = True
+            return True
+        line = text.decode("latin-1")
+        sep = max(";,\t", key=line.count)
+        names = [_header_name(name) for name in line.split(sep)]
+        codes = [_HEADER_NAMES.get(name, SKIP_COLUMN) for name in names]
+        if sum(code != SKIP_COLUMN for code in codes) < _MIN_HEADER_NAMES:
+            return False
+        if any(_KEY_LINE.fullmatch(name) or _NUMBER.fullmatch(name) for name in names):
+            return False  # values, not names
+        self._header = (tuple(codes), sep)
+        self._skip = 2 if self._toa5 else 0
+        return True
+
+    def _row(self, line: Frame) -> Frame:
+        """A row under a header line: its columns, less those the logger's stamp took."""
+        assert self._header is not None
+        codes, sep = self._header
+        if line.t_ns is not None:
+            while codes and codes[0] in (TIME_COLUMN, RECORD_COLUMN):
+                codes = codes[1:]
+        return Frame(line.data, line.t_ns, line.line, fields=codes, separator=sep)
 
     def _stamped(self, line: Frame) -> Frame:
         """``line`` with the pending logger stamp, when it has no time of its own."""
@@ -240,11 +340,27 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
     except UnicodeDecodeError:
         raise ParseError("non-ASCII bytes (noise, or a wrong baud rate)") from None
     head = text.lstrip(_CONTROL)
-    if head.startswith("TYP") or ("\n" in head and _KEY_LINE.match(head)):
+    t_ns = frame.t_ns
+    if frame.fields is not None:  # a row under a header line: its columns are named
+        raw = _telegram_values(text.replace('"', ""), frame.fields, frame.separator or ";")
+        if t_ns is None and TIME_COLUMN in raw:
+            t_ns, _ = _ISO(raw[TIME_COLUMN].strip().encode("ascii") + b";")
+            if t_ns is None:
+                raise ParseError(f"time column: {raw[TIME_COLUMN][:25]!r} is not a date")
+    elif head.startswith("TYP") or ("\n" in head and _KEY_LINE.match(head)):
         raw = _answer_values(text)  # with its TYP line, or without (a logger's layout)
     else:
         raw = _telegram_values(text, o["fields"], o["separator"])
-    return _reading(raw, frame.t_ns, o["timezone"])
+    return _reading(raw, t_ns, o["timezone"])
+
+
+def _header_name(name: str) -> str:
+    """A column name as :data:`_HEADER_NAMES` spells it."""
+    ascii_only = name.encode("ascii", "ignore").decode("ascii")
+    return " ".join(ascii_only.strip().strip('"').lower().split())
+
+
+_NUMBER = re.compile(r"[-+]?\d+([.,]\d*)?")
 
 
 def _answer_values(text: str) -> dict[int, str]:
