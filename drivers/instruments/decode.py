@@ -23,7 +23,9 @@ sensor clock far from the logger's is said once, in ``DecodeStats.notes``.
 from __future__ import annotations
 
 import dataclasses
+import datetime as dt
 import os
+import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -203,12 +205,49 @@ def _decode_open_file(
     chunk_bytes: int,
     time: str,
 ) -> Iterator[Reading]:
+    stats = stats if stats is not None else DecodeStats()
+    day = _name_day(os.path.basename(f.name))
     with f:
         chunks = iter(lambda: f.read(chunk_bytes), b"")
         try:
-            yield from decode_chunks(spec, chunks, options=opts, stats=stats, time=time)
+            for reading in decode_chunks(spec, chunks, options=opts, stats=stats, time=time):
+                if day is not None:
+                    note = _name_day_note(reading, day)
+                    if note is not None:
+                        stats.notes.append(note)
+                        day = None  # said once
+                yield reading
         except OSError as exc:
             raise InputError(f"{f.name}: {exc.strerror or exc}") from None
+
+
+_NAME_DAY = re.compile(r"(?<!\d)((?:19|20)\d\d)[-_]?(0[1-9]|1[0-2])[-_]?(0[1-9]|[12]\d|3[01])")
+
+
+def _name_day(name: str) -> dt.date | None:
+    """The date a file's name gives (``2025060200.txt``, ``THIES_2024_04_14.dat``), if any."""
+    m = _NAME_DAY.search(name)
+    if m is None:
+        return None
+    try:
+        return dt.date(int(m[1]), int(m[2]), int(m[3]))
+    except ValueError:
+        return None
+
+
+def _name_day_note(reading: Reading, day: dt.date) -> str | None:
+    """One line when a reading dated by the sensor's clock is days away from the date in
+    the file's name (a logger names its files by its own clock)."""
+    if reading.extra.get("time_source") != "sensor" or reading.t_ns is None:
+        return None
+    t = dt.datetime.fromtimestamp(reading.t_ns / 1e9, tz=dt.UTC).date()
+    if -1 <= (t - day).days <= 1:
+        return None
+    return (
+        f"the sensor clock says {iso_utc(reading.t_ns)} but the file's name says {day}: "
+        "is the sensor's clock set? (readings keep the sensor's time: the file has no "
+        "logger stamp)"
+    )
 
 
 def _parse(

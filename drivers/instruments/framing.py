@@ -399,7 +399,9 @@ class DelimitedOrLineFramer:
     (power-up noise does not look like one). Until either is seen the bytes are held
     (at most ``max_undecided`` of them, then delimited is taken); at :meth:`flush` an undecided
     stream is delimited if it holds a ``start`` byte. The decision depends on the bytes only,
-    never on how reads split them.
+    never on how reads split them. In line mode, ``line_prefix`` reads a logger's stamp at
+    the start of a line, and lines that ``is_header`` says are a file's header (column
+    names...) are dropped and counted in ``header_lines``, neither frames nor garbage.
     """
 
     def __init__(
@@ -411,9 +413,14 @@ class DelimitedOrLineFramer:
         min_markers: int = 1,
         flush_partial: bool = False,
         max_undecided: int = 65536,
+        line_prefix: PrefixParser | None = None,
+        is_header: Callable[[bytes], bool] | None = None,
     ) -> None:
         self._delimited = DelimitedFramer(start, end, flush_partial=flush_partial)
-        self._lines = LineFramer()
+        self._lines = LineFramer(prefix=line_prefix)
+        self._is_header = is_header
+        #: Header lines (column names, a TOA5 file's metadata) dropped in line mode.
+        self.header_lines = 0
         self._start, self._marker, self._max = bytes(start), bytes(marker), max_undecided
         self._min_markers = min_markers
         self._chosen: DelimitedFramer | LineFramer | None = None
@@ -455,7 +462,7 @@ class DelimitedOrLineFramer:
             if self._chosen is None:
                 return []
             data, self._pending = bytes(self._pending), bytearray()
-        return self._chosen.feed(data)
+        return self._headers_out(self._chosen.feed(data))
 
     def flush(self) -> list[Frame]:
         """At the end of a file: what the chosen framer still holds."""
@@ -464,4 +471,11 @@ class DelimitedOrLineFramer:
             self._decide(final=True)
             frames = self._chosen.feed(bytes(self._pending))
             self._pending.clear()
-        return frames + self._chosen.flush()
+        return self._headers_out(frames + self._chosen.flush())
+
+    def _headers_out(self, frames: list[Frame]) -> list[Frame]:
+        if self._is_header is None or self._chosen is not self._lines:
+            return frames
+        kept = [f for f in frames if f.t_ns is not None or not self._is_header(f.data)]
+        self.header_lines += len(frames) - len(kept)
+        return kept

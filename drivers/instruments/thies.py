@@ -70,7 +70,15 @@ from .base import (
     sensor_zone,
     with_defaults,
 )
-from .framing import DelimitedOrLineFramer
+from .framing import (
+    PREFIX_ISO,
+    PREFIX_TOA5,
+    PREFIX_YMDHMS,
+    DelimitedOrLineFramer,
+    first_prefix,
+    regex_prefix,
+    unix_prefix,
+)
 
 __all__ = [
     "DRIVER",
@@ -147,10 +155,35 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+#: Logger stamps before a telegram on its line: ``2024-10-03 00:00:41;``, ISO 8601,
+#: ``YYYYMMDDhhmmss;``, Unix seconds, a Campbell TOA5 row ``"2024-04-14 00:01:00",552609,"``.
+_LOGGER_PREFIX = first_prefix(
+    regex_prefix(PREFIX_TOA5),
+    regex_prefix(PREFIX_YMDHMS),
+    regex_prefix(PREFIX_ISO),
+    unix_prefix,
+)
+
+
+def _is_header(line: bytes) -> bool:
+    """A header line of a logger's file (column names, TOA5 metadata), not a telegram: it
+    does not start with the device address's digits."""
+    return not line.lstrip(b" \x02")[:1].isdigit()
+
+
 def make_framer(options: dict[str, Any]) -> DelimitedOrLineFramer:
     """STX…ETX telegrams (a last one cut before its ETX is still handed out), or one telegram
-    a line where a logger stripped STX and ETX: the capture's first bytes tell which."""
-    return DelimitedOrLineFramer(STX, ETX, marker=b";", min_markers=MIN_FIELDS, flush_partial=True)
+    a line where a logger stripped STX and ETX (with or without its stamp before it, under
+    header lines or not): the capture's first bytes tell which."""
+    return DelimitedOrLineFramer(
+        STX,
+        ETX,
+        marker=b";",
+        min_markers=MIN_FIELDS,
+        flush_partial=True,
+        line_prefix=_LOGGER_PREFIX,
+        is_header=_is_header,
+    )
 
 
 def poll_command(options: dict[str, Any]) -> bytes:
@@ -171,7 +204,7 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
     if _TEXT.fullmatch(raw) is None:
         raise ParseError("non-ASCII bytes in the telegram (wrong baud rate or noise?)")
     body = raw[raw.index(STX) + 1 :] if STX in raw else raw
-    values = body.decode("ascii").strip("\x03\r\n").split(";")
+    values = body.decode("ascii").strip('\x03\r\n"').split(";")
     if values and values[-1].strip() == "":
         values.pop()
     n = len(values)
