@@ -50,6 +50,13 @@ def _instruments_decode(args: argparse.Namespace) -> int:
         _say(args.file, stats, said)
     _say(args.file, stats, said)
     sys.stdout.flush()
+    if stats.readings == 0:  # never a whole file called garbage without what was expected
+        print(
+            f"weatherd: {args.file}: no reading; {args.driver} expects "
+            f"{DRIVERS[args.driver].description} (the layouts each driver reads are listed "
+            "in docs/instruments.md)",
+            file=sys.stderr,
+        )
     print(
         f"weatherd: {args.file}: {stats.readings} readings, {len(stats.bad)} bad frame(s), "
         f"{stats.garbage_bytes} garbage byte(s)",

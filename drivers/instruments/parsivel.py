@@ -383,7 +383,10 @@ def _telegram_values(text: str, fields: Sequence[int], sep: str) -> dict[int, st
     i = 0
     for num in fields:
         if i >= len(tokens):
-            raise ParseError(f"expected {need} values, got {len(tokens)}")
+            raise ParseError(
+                f"expected {need} values, got {len(tokens)} "
+                f"(the telegram of {len(fields)} fields: options.fields or a header line)"
+            )
         width = _width(num, tokens, i)
         raw[num] = sep.join(tokens[i : i + width])
         i += width
@@ -492,5 +495,7 @@ DRIVER = DriverSpec(
     modes=("automatic", "polled"),
     poll_command=poll_command,
     check_options=check_options,
-    description="OTT Parsivel2: CS/PA answers and ';'-separated user telegrams",
+    description="OTT Parsivel2: CS/PA answers (NN:value lines) or ';'-separated user "
+    "telegrams in the order of options.fields, with or without a logger's stamp before "
+    "them, or a CSV whose header line names the columns",
 )

@@ -167,8 +167,9 @@ _LOGGER_PREFIX = first_prefix(
 
 def _is_header(line: bytes) -> bool:
     """A header line of a logger's file (column names, TOA5 metadata), not a telegram: it
-    does not start with the device address's digits."""
-    return not line.lstrip(b" \x02")[:1].isdigit()
+    has columns but does not start with the device address's digits."""
+    columns = line.count(b";") + line.count(b",")
+    return columns >= 2 and not line.lstrip(b" \x02")[:1].isdigit()
 
 
 def make_framer(options: dict[str, Any]) -> DelimitedOrLineFramer:
@@ -392,5 +393,7 @@ DRIVER = DriverSpec(
     poll_command=poll_command,
     check_options=check_options,
     reports_checksum=True,
-    description="Thies Clima LNM/LPM laser disdrometer, telegram 4 (STX…ETX, checksum)",
+    description="Thies Clima LNM/LPM laser disdrometer telegram 4: ';'-separated values "
+    "from the device address (17 to 79 of them, or 519/520/523/524 with the spectrum), "
+    "within STX…ETX or one a line, with or without a logger's stamp before them",
 )

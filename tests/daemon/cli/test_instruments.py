@@ -171,3 +171,14 @@ def test_a_checksum_convention_is_said_once_and_the_readings_kept() -> None:
     proc = decode("--driver", "thies-lnm", capture, "--checksum", "report")
     assert [json.loads(line)["checksum_ok"] for line in proc.stdout.splitlines()] == [False] * 3
     assert "same way" not in proc.stderr
+
+
+@pytest.mark.parametrize("driver", ["thies-lnm", "ott-parsivel"])
+def test_a_file_without_any_reading_says_what_was_expected(tmp_path: Path, driver: str) -> None:
+    capture = tmp_path / "notes.txt"
+    capture.write_text("hello world\nnothing here\n")
+    proc = decode("--driver", driver, capture)
+    assert proc.returncode == 0 and proc.stdout == ""
+    said = [line for line in proc.stderr.splitlines() if "no reading" in line]
+    assert len(said) == 1 and f"{driver} expects" in said[0] and "telegram" in said[0]
+    assert f"{capture}:1:" in proc.stderr  # and each line says why it is not one
