@@ -38,9 +38,10 @@ bits are not documented in what we could find: shown, not judged.
 Times in the lines are the logger's or the gauge's local time: option ``timezone`` (IANA
 name, default ``"UTC"``). ``time_source`` says whose: ``logger`` for the logger's lines
 (the 22-column one also gives ``sensor_clock_offset_s``, the gauge's clock against the
-logger's), ``sensor`` for the gauge's own t2/t3 telegrams. ``rain_accum_mm`` is the gauge's total since system start
-(0...9999 mm); turn it into amounts with :mod:`drivers.instruments.accum`. Factory serial
-settings of the talker protocol: 19200 baud, 8N1.
+logger's), ``sensor`` for the gauge's own t2/t3 telegrams. ``rain_accum_mm`` is the
+gauge's total since system start (0...9999 mm); turn it into amounts with
+:mod:`drivers.instruments.accum`. Factory serial settings of the talker protocol: 19200
+baud, 8N1.
 """
 
 from __future__ import annotations
