@@ -31,9 +31,18 @@ Two shapes arrive on the wire:
   (taken as UTC) rather than the sensor's value 19, whose own format is
   ``dd.mm.yyyy hh:mm:ss``. In that logger the spectrum (93) is one ``/``-separated field.
 
+Loggers add a third: a CSV whose header line names the columns (pyAtmosLogger-style
+``datetime_utc;rain rate [mm/h];...``, OTT's export ``Date;Time;Intensity of precipitation
+(mm/h);...``, Campbell TOA5 tables with their four header lines). :class:`ParsivelFramer`
+recognises a header line (three known names at least) and gives each row under it the value
+numbers of its columns (``Frame.fields``), so no ``fields`` option is needed; unknown columns
+(the 32 x 32 spectrum spread over 1024 columns...) are skipped. A spectrum written
+``<SPECTRUM>`` then its values then ``</SPECTRUM>`` (the raining rows) is one value.
+
 Sentinels (``-9.999``) become None. The reading's time is the frame's (logger or receive
-time), else the sensor clock (values 21 + 20, taken as UTC). ``temperature_c`` is value 12,
-the temperature in the sensor housing, not the air temperature. ``fault`` is True when the
+time; the stamps read are in ``_LOGGER_PREFIX``, or a header CSV's time column), else the
+sensor clock (values 21 + 20, in option ``timezone``, UTC by default). ``temperature_c`` is
+value 12, the temperature in the sensor housing, not the air temperature. ``fault`` is True when the
 sensor status (18) or the error code (25) is 2 or more (no usable measurement).
 Factory serial settings: 19200 baud, 8N1 (RS-485).
 """
