@@ -46,12 +46,12 @@ PREFIX_YMDHMS = (
     rb"(?P<year>\d{4})(?P<month>\d{2})(?P<day>\d{2})"
     rb"(?P<hour>\d{2})(?P<minute>\d{2})(?P<second>\d{2})(?:\.(?P<fraction>\d{1,9}))?[;, \t]"
 )
-#: A Campbell TOA5 row: ``"2024-04-14 00:01:00",552609,`` (TIMESTAMP, RECORD), and the
-#: opening quote of a telegram its table stores as a string.
+#: A Campbell TOA5 row: ``"2024-04-14 00:01:00",552609,`` (TIMESTAMP, RECORD); the rest
+#: keeps its quotes (a telegram stored as a string is ``"00;2965;..."``).
 PREFIX_TOA5 = (
     rb'"(?P<year>\d{4})-(?P<month>\d{2})-(?P<day>\d{2}) '
     rb'(?P<hour>\d{2}):(?P<minute>\d{2})(?::(?P<second>\d{2})(?:\.(?P<fraction>\d{1,9}))?)?",'
-    rb'\d+,"?'
+    rb"\d+,"
 )
 #: ``[2024-01-14 00:00:00``, ``2024-01-14T00:00:00.250Z;``, ``2019/11/15 10:00:00``: ISO-like
 #: logger stamps, bracketed or not, before a telegram on the same line or alone on a line.

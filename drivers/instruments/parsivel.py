@@ -49,6 +49,7 @@ Factory serial settings: 19200 baud, 8N1 (RS-485).
 
 from __future__ import annotations
 
+import csv
 import datetime as dt
 import re
 from collections.abc import Sequence
@@ -151,31 +152,37 @@ _HEADER_NAMES: dict[str, int] = {
         TIME_COLUMN: ("timestamp", "datetime_utc", "datetime [utc]", "datetime"),
         RECORD_COLUMN: ("record",),
         1: ("rain rate [mm/h]", "rainintensity", "rain_intensity",
-            "intensity of precipitation (mm/h)"),
-        2: ("rain accum [mm]", "accprec", "precipitation since start (mm)"),
-        3: ("wawa", "weathercodewawa", "weather_code_wawa", "weather code synop wawa"),
-        4: ("wawa [ww]",),
+            "intensity of precipitation (mm/h)", "intensity"),
+        2: ("rain accum [mm]", "accprec", "precipitation since start (mm)",
+            "accumulatedamount"),
+        3: ("wawa", "weathercodewawa", "weather_code_wawa", "weather code synop wawa",
+            "code4680"),
+        4: ("wawa [ww]", "code4677"),
         5: ("wawa [metar]", "weather code metar/speci"),
         6: ("wawa [nws]", "weather code nws"),
         7: ("z [dbz]", "radarreflectivity", "radar_reflectivity", "radar reflectivity (dbz)"),
-        8: ("mor visibility [m]", "morvisibility", "mor_visibility", "mor visibility (m)"),
+        8: ("mor visibility [m]", "morvisibility", "mor_visibility", "mor visibility (m)",
+            "visibility"),
         9: ("sample interval [s]",),
-        10: ("signal amplitude", "signalamplitude", "signal amplitude of laserband"),
-        11: ("number of detected particles", "numberparticles", "number_particles"),
+        10: ("signal amplitude", "signalamplitude", "signal amplitude of laserband",
+             "laseramplitude"),
+        11: ("number of detected particles", "numberparticles", "number_particles",
+             "numberofparticles"),
         12: ("temperature sensor [c]", "sensortemperature", "sensor_temperature",
-             "temperature in sensor (c)"),
+             "temperature in sensor (c)", "temperature"),
         13: ("serial number",),
         14: ("iop firmware version",),
         15: ("dsp firmware version",),
         16: ("current heating system [a]", "heatingcurrent", "heating current (a)"),
-        17: ("power supply voltage in the sensor [v]", "sensorvoltage", "sensor voltage (v)"),
-        18: ("sensor status", "sensorstatus", "optics status"),
+        17: ("power supply voltage in the sensor [v]", "sensorvoltage", "sensor voltage (v)",
+             "voltage"),
+        18: ("sensor status", "sensorstatus", "optics status", "status"),
         20: ("sensor time [hh:mm:ss]", "time"),
         21: ("sensor date [dd.mm.yy]", "date"),
         22: ("station name",),
         23: ("station number",),
-        24: ("rain amount absolute [mm]",),
-        25: ("error code", "errorcode"),
+        24: ("rain amount absolute [mm]", "absoluteamount"),
+        25: ("error code", "errorcode", "error"),
         26: ("temperature pcb [c]", "pbctemperature"),
         27: ("temperature right sensor head [c]", "righttemperature"),
         28: ("temperature left sensor head [c]", "lefttemperature"),
@@ -351,7 +358,9 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
     head = text.lstrip(_CONTROL)
     t_ns = frame.t_ns
     if frame.fields is not None:  # a row under a header line: its columns are named
-        raw = _telegram_values(text.replace('"', ""), frame.fields, frame.separator or ";")
+        sep = frame.separator or ";"
+        (tokens,) = csv.reader([text.strip(_CONTROL)], delimiter=sep)  # "a,b" is one column
+        raw = _telegram_values(sep.join(t.replace(sep, " ") for t in tokens), frame.fields, sep)
         if t_ns is None and TIME_COLUMN in raw:
             t_ns, _ = _ISO(raw[TIME_COLUMN].strip().encode("ascii") + b";")
             if t_ns is None:

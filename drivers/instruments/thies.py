@@ -202,6 +202,8 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
     """One telegram 4 (whole or a logger's prefix of it) -> Reading; ParseError if unreadable."""
     options = check_options(options or {})
     raw = frame.data
+    if raw[:1] == b'"':  # a telegram a logger stored as a quoted string (TOA5)
+        raw = raw.strip(b'"\r\n')
     if _TEXT.fullmatch(raw) is None:
         raise ParseError("non-ASCII bytes in the telegram (wrong baud rate or noise?)")
     body = raw[raw.index(STX) + 1 :] if STX in raw else raw

@@ -3,6 +3,7 @@ data/PROVENANCE.md) and layouts built from them."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
@@ -129,3 +130,32 @@ def test_logger_prefixes(prefix, t):
     (r,) = decode_chunks(SPEC, [prefix + telegram + b"\r\n"], options=options, stats=stats)
     assert r.to_json()["t"] == t and r.extra["time_source"] == "logger"
     assert (r.rain_accum_mm, r.extra["station_name"]) == (58.68, "LINDENBERG")
+
+
+EPFL = Path(os.environ.get("WEATHERD_DATA", "/work/data")) / "instruments"
+EPFL = EPFL / "epfl_parsivel_2007_toa5.dat"
+
+
+@pytest.mark.skipif(not EPFL.exists(), reason="GPL capture kept outside git (PROVENANCE)")
+def test_toa5_with_quoted_values_and_vectors_in_one_column():
+    """disdrodb's EPFL 2007 capture: every value quoted, each vector a quoted list."""
+    readings, stats = decode(EPFL)
+    assert (len(readings), stats.bad, stats.garbage_bytes) == (25, [], 0)
+    assert readings[0]["t"] == "2007-07-23T14:15:30Z"
+    assert readings[-1]["t"] == "2007-07-23T14:19:30Z"
+    assert {r["time_source"] for r in readings} == {"logger"}
+    assert readings[0]["visibility_m"] == 5000 and readings[0]["laser_amplitude"] == 13717
+
+
+def test_quoted_vectors_in_one_column_built():
+    """The EPFL layout, built: a vector column holding commas does not shift the others."""
+    data = (
+        b'"TOA5","7481","CR1000","7481","CR1000.Std.11","CPU:Parsivel.CR1","49567","P"\r\n'
+        b'"TIMESTAMP","RECORD","Intensity","AccumulatedAmount","Code4680","FieldN",'
+        b'"Visibility"\r\n"TS","RN","","","","",""\r\n"","","Smp","Smp","Smp","Smp","Smp"\r\n'
+        b'"2007-07-23 14:15:30",0,"0001.250","0000.76","61","-9.999,0.5,1.25","4500"\r\n'
+    )
+    stats = DecodeStats()
+    (r,) = decode_chunks(SPEC, [data], stats=stats)
+    assert (r.rain_rate_mm_h, r.rain_accum_mm, r.wawa, r.visibility_m) == (1.25, 0.76, 61, 4500)
+    assert r.to_json()["t"] == "2007-07-23T14:15:30Z" and stats.bad == []
