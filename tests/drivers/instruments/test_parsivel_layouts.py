@@ -4,6 +4,7 @@ data/PROVENANCE.md) and layouts built from them."""
 from __future__ import annotations
 
 import os
+import random
 from pathlib import Path
 
 import pytest
@@ -159,3 +160,17 @@ def test_quoted_vectors_in_one_column_built():
     (r,) = decode_chunks(SPEC, [data], stats=stats)
     assert (r.rain_rate_mm_h, r.rain_accum_mm, r.wawa, r.visibility_m) == (1.25, 0.76, 61, 4500)
     assert r.to_json()["t"] == "2007-07-23T14:15:30Z" and stats.bad == []
+
+
+@pytest.mark.parametrize(
+    "name", ["parsivel_granada_toa5_excerpt.dat", "parsivel_kenttarova_excerpt.csv"]
+)
+def test_header_csvs_survive_any_split(name):
+    data = (DATA / name).read_bytes()
+    rng = random.Random(12)
+    whole = [r.to_json() for r in decode_chunks(SPEC, [data])]
+    assert len(whole) == 2
+    for _ in range(5):
+        cuts = sorted(rng.sample(range(1, len(data)), 40))
+        chunks = [data[a:b] for a, b in zip([0, *cuts], [*cuts, len(data)], strict=True)]
+        assert [r.to_json() for r in decode_chunks(SPEC, chunks)] == whole
