@@ -34,24 +34,44 @@ def _instruments_decode(args: argparse.Namespace) -> int:
             options[key] = text
     stats = DecodeStats()
     try:
-        readings = decode_file(DRIVERS[args.driver], args.file, options=options, stats=stats)
+        readings = decode_file(
+            DRIVERS[args.driver],
+            args.file,
+            options=options,
+            stats=stats,
+            time=args.time,
+            checksum=args.checksum or "auto",
+        )
     except ConfigError as exc:
         raise ConfigError(f"--option: {exc}") from None
-    n_bad = 0
+    said = {"bad": 0, "notes": 0}
     for reading in readings:
         sys.stdout.write(json.dumps(reading.to_json(), separators=(",", ":")) + "\n")
-        for line, reason in stats.bad[n_bad:]:
-            print(f"weatherd: {args.file}:{line}: {reason}", file=sys.stderr)
-        n_bad = len(stats.bad)
-    for line, reason in stats.bad[n_bad:]:
-        print(f"weatherd: {args.file}:{line}: {reason}", file=sys.stderr)
+        _say(args.file, stats, said)
+    _say(args.file, stats, said)
     sys.stdout.flush()
+    if stats.readings == 0:  # never a whole file called garbage without what was expected
+        print(
+            f"weatherd: {args.file}: no reading; {args.driver} expects "
+            f"{DRIVERS[args.driver].description} (the layouts each driver reads are listed "
+            "in docs/instruments.md)",
+            file=sys.stderr,
+        )
     print(
         f"weatherd: {args.file}: {stats.readings} readings, {len(stats.bad)} bad frame(s), "
         f"{stats.garbage_bytes} garbage byte(s)",
         file=sys.stderr,
     )
     return EXIT_OK
+
+
+def _say(path: str, stats: Any, said: dict[str, int]) -> None:
+    """What ``stats`` learnt since the last call, on stderr: bad frames, then notes."""
+    for line, reason in stats.bad[said["bad"] :]:
+        print(f"weatherd: {path}:{line}: {reason}", file=sys.stderr)
+    for note in stats.notes[said["notes"] :]:
+        print(f"weatherd: {path}: {note}", file=sys.stderr)
+    said.update(bad=len(stats.bad), notes=len(stats.notes))
 
 
 def _driver_names() -> list[str]:
@@ -91,5 +111,21 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
         action="append",
         metavar="KEY=VALUE",
         help="a driver option (TOML value), e.g. --option mm_per_tip=0.1",
+    )
+    decode.add_argument(
+        "--time",
+        choices=("logger", "sensor"),
+        default="logger",
+        help="the clock that dates a reading when the capture has both: the logger's stamp "
+        "(default) or the sensor's own clock; each line says which in time_source",
+    )
+    decode.add_argument(
+        "--checksum",
+        choices=("enforce", "report", "ignore"),
+        default=None,
+        help="telegram checksums (thies-lnm): refuse a telegram that fails (enforce), keep "
+        "it and say so in checksum_ok (report), or do not look (ignore). Default: enforce, "
+        "unless every telegram of the file fails the same way (a convention of the sensor or "
+        "its logger, said once): then report",
     )
     decode.set_defaults(handler=_instruments_decode)

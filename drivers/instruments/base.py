@@ -36,6 +36,7 @@ __all__ = [
     "Reading",
     "SerialDefaults",
     "iso_utc",
+    "sensor_zone",
     "with_defaults",
 ]
 
@@ -55,11 +56,17 @@ class Frame:
     t_ns : int or None, UTC ns from a logger's timestamp prefix; None for a raw serial stream
         (the reader then stamps the receive time)
     line : int, 1-based line number in a file where the frame starts (0 when not from a file)
+    fields : what each column of a row holds, when a header line in the file named the
+        columns (the driver's value numbers; drivers give their own codes to a time column
+        or one to skip); None for a telegram laid out as the driver's options say
+    separator : the column separator of such a row (``;``, ``,``...)
     """
 
     data: bytes
     t_ns: int | None = None
     line: int = 0
+    fields: tuple[int, ...] | None = None
+    separator: str | None = None
 
 
 class Framer(Protocol):
@@ -140,6 +147,26 @@ def with_defaults(options: dict[str, Any], defaults: dict[str, Any], driver: str
     return {**defaults, **options}
 
 
+def sensor_zone(value: Any, key: str = "options.timezone") -> dt.tzinfo:
+    """The time zone of a sensor's clock: a zone name (``"Europe/Berlin"``, ``"UTC"``) or a
+    fixed offset from UTC in hours (``-6``, ``5.5``, ``"-06:00"``); ConfigError naming ``key``."""
+    import re
+    import zoneinfo
+
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        hours = float(value)
+    elif isinstance(value, str) and (m := re.fullmatch(r"([+-])(\d{1,2}):?(\d{2})?", value)):
+        hours = (int(m[2]) + int(m[3] or 0) / 60) * (-1 if m[1] == "-" else 1)
+    else:
+        try:
+            return zoneinfo.ZoneInfo(str(value))
+        except (zoneinfo.ZoneInfoNotFoundError, ValueError) as exc:
+            raise ConfigError(f"{key}: unknown time zone {value!r}") from exc
+    if not -14 <= hours <= 14:
+        raise ConfigError(f"{key}: an offset from UTC is within -14...+14 hours")
+    return dt.timezone(dt.timedelta(hours=hours))
+
+
 def _clean(value: Any) -> Any:
     if isinstance(value, float) and not math.isfinite(value):
         return None
@@ -182,5 +209,9 @@ class DriverSpec:
     #: The bytes that ask the instrument for one message, in polled mode.
     poll_command: Callable[[dict[str, Any]], bytes] | None = None
     check_options: Callable[[dict[str, Any]], dict[str, Any]] = dict
+    #: The driver's option ``checksum`` takes "report" (each reading says whether its
+    #: checksum matched, ``checksum_ok``, and by how much it is off, ``checksum_offset``)
+    #: and "ignore": ``weatherd instruments decode --checksum`` drives it.
+    reports_checksum: bool = False
     #: One line for ``weatherd instruments decode --help`` and the docs.
     description: str = ""

@@ -26,6 +26,7 @@ from .base import Frame
 __all__ = [
     "PREFIX_DMY_HMS",
     "PREFIX_ISO",
+    "PREFIX_TOA5",
     "PREFIX_YMDHMS",
     "DelimitedFramer",
     "LineFramer",
@@ -33,15 +34,24 @@ __all__ = [
     "first_prefix",
     "is_blank",
     "regex_prefix",
+    "unix_prefix",
 ]
 
 #: ``prefix(line) -> (t_ns or None, rest of the line)``; ``(None, line)`` when absent.
 PrefixParser = Callable[[bytes], tuple[int | None, bytes]]
 
-#: ``20231204000047;`` (OTT/Campbell style loggers), separator ``;``, ``,`` or blanks.
+#: ``20231204000047;`` (OTT/Campbell style loggers), ``20190410230720.646;`` with
+#: milliseconds; separator ``;``, ``,`` or blanks.
 PREFIX_YMDHMS = (
     rb"(?P<year>\d{4})(?P<month>\d{2})(?P<day>\d{2})"
-    rb"(?P<hour>\d{2})(?P<minute>\d{2})(?P<second>\d{2})[;, \t]"
+    rb"(?P<hour>\d{2})(?P<minute>\d{2})(?P<second>\d{2})(?:\.(?P<fraction>\d{1,9}))?[;, \t]"
+)
+#: A Campbell TOA5 row: ``"2024-04-14 00:01:00",552609,`` (TIMESTAMP, RECORD); the rest
+#: keeps its quotes (a telegram stored as a string is ``"00;2965;..."``).
+PREFIX_TOA5 = (
+    rb'"(?P<year>\d{4})-(?P<month>\d{2})-(?P<day>\d{2}) '
+    rb'(?P<hour>\d{2}):(?P<minute>\d{2})(?::(?P<second>\d{2})(?:\.(?P<fraction>\d{1,9}))?)?",'
+    rb"\d+,"
 )
 #: ``[2024-01-14 00:00:00``, ``2024-01-14T00:00:00.250Z;``, ``2019/11/15 10:00:00``: ISO-like
 #: logger stamps, bracketed or not, before a telegram on the same line or alone on a line.
@@ -72,6 +82,23 @@ def first_prefix(*parsers: PrefixParser) -> PrefixParser:
         return None, line
 
     return parse
+
+
+_UNIX = re.compile(rb"(?P<s>1\d{9})(?:(?P<ms>\d{3})|\.(?P<fraction>\d{1,9}))?[;, \t]")
+
+
+def unix_prefix(line: bytes) -> tuple[int | None, bytes]:
+    """A logger's Unix time before the telegram: ``1702166447;`` (seconds, 2001...2286),
+    ``1702166447.250;`` or ``1702166447250;`` (milliseconds). UTC by definition."""
+    m = _UNIX.match(line)
+    if m is None:
+        return None, line
+    t_ns = int(m["s"]) * 1_000_000_000
+    if m["ms"]:
+        t_ns += int(m["ms"]) * 1_000_000
+    elif m["fraction"]:
+        t_ns += int(m["fraction"].decode().ljust(9, "0")[:9])
+    return t_ns, line[m.end() :]
 
 
 def is_blank(line: bytes) -> bool:
@@ -372,7 +399,9 @@ class DelimitedOrLineFramer:
     (power-up noise does not look like one). Until either is seen the bytes are held
     (at most ``max_undecided`` of them, then delimited is taken); at :meth:`flush` an undecided
     stream is delimited if it holds a ``start`` byte. The decision depends on the bytes only,
-    never on how reads split them.
+    never on how reads split them. In line mode, ``line_prefix`` reads a logger's stamp at
+    the start of a line, and lines that ``is_header`` says are a file's header (column
+    names...) are dropped and counted in ``header_lines``, neither frames nor garbage.
     """
 
     def __init__(
@@ -384,9 +413,14 @@ class DelimitedOrLineFramer:
         min_markers: int = 1,
         flush_partial: bool = False,
         max_undecided: int = 65536,
+        line_prefix: PrefixParser | None = None,
+        is_header: Callable[[bytes], bool] | None = None,
     ) -> None:
         self._delimited = DelimitedFramer(start, end, flush_partial=flush_partial)
-        self._lines = LineFramer()
+        self._lines = LineFramer(prefix=line_prefix)
+        self._is_header = is_header
+        #: Header lines (column names, a TOA5 file's metadata) dropped in line mode.
+        self.header_lines = 0
         self._start, self._marker, self._max = bytes(start), bytes(marker), max_undecided
         self._min_markers = min_markers
         self._chosen: DelimitedFramer | LineFramer | None = None
@@ -428,7 +462,7 @@ class DelimitedOrLineFramer:
             if self._chosen is None:
                 return []
             data, self._pending = bytes(self._pending), bytearray()
-        return self._chosen.feed(data)
+        return self._headers_out(self._chosen.feed(data))
 
     def flush(self) -> list[Frame]:
         """At the end of a file: what the chosen framer still holds."""
@@ -437,4 +471,11 @@ class DelimitedOrLineFramer:
             self._decide(final=True)
             frames = self._chosen.feed(bytes(self._pending))
             self._pending.clear()
-        return frames + self._chosen.flush()
+        return self._headers_out(frames + self._chosen.flush())
+
+    def _headers_out(self, frames: list[Frame]) -> list[Frame]:
+        if self._is_header is None or self._chosen is not self._lines:
+            return frames
+        kept = [f for f in frames if f.t_ns is not None or not self._is_header(f.data)]
+        self.header_lines += len(frames) - len(kept)
+        return kept

@@ -36,9 +36,12 @@ stopped); ``fault`` is True for any error bit or a stopped measurement. The syst
 bits are not documented in what we could find: shown, not judged.
 
 Times in the lines are the logger's or the gauge's local time: option ``timezone`` (IANA
-name, default ``"UTC"``). ``rain_accum_mm`` is the gauge's total since system start
-(0...9999 mm); turn it into amounts with :mod:`drivers.instruments.accum`. Factory serial
-settings of the talker protocol: 19200 baud, 8N1.
+name, default ``"UTC"``). ``time_source`` says whose: ``logger`` for the logger's lines
+(the 22-column one also gives ``sensor_clock_offset_s``, the gauge's clock against the
+logger's), ``sensor`` for the gauge's own t2/t3 telegrams. ``rain_accum_mm`` is the
+gauge's total since system start (0...9999 mm); turn it into amounts with
+:mod:`drivers.instruments.accum`. Factory serial settings of the talker protocol: 19200
+baud, 8N1.
 """
 
 from __future__ import annotations
@@ -116,10 +119,17 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
     cols = [c.strip() for c in raw.decode("latin-1").split(";")]
     if len(cols) == 16:
         t_ns = _local_ns(_DMY, cols[0], cols[1], options["timezone"], day_first=True)
-        return _reading(cols[2:12], t_ns, extra={"device_type": cols[12]})
+        extra = {"device_type": cols[12], "time_source": "logger"}
+        return _reading(cols[2:12], t_ns, extra=extra)
     if len(cols) == 22:
         t_ns = _utc_ns(cols[0])
         extra = {"device_type": cols[13], "serial_number": cols[18], "firmware": cols[20]}
+        extra["time_source"] = "logger"
+        try:  # the gauge's own date and time follow the logger's
+            gauge_ns = _local_ns(_DMY, cols[1], cols[2], options["timezone"], day_first=True)
+            extra["sensor_clock_offset_s"] = round((gauge_ns - t_ns) / 1e9, 3)
+        except ParseError:
+            pass
         outside = cols[21].split("*")[0]
         extra["outside_temperature_c"] = _float(outside, "outside temperature")
         # the air's temperature, as the t3 telegram's reading carries it
@@ -174,6 +184,7 @@ def _telegram(raw: bytes, m: re.Match[bytes], options: dict[str, Any]) -> Readin
         "heating": _int(c[7], "heating"),
         "error_code": error,
         "outside_temperature_c": _float(c[-1], "outside temperature"),
+        "time_source": "sensor",
     }
     if n == 3:
         extra["device_type"] = c[10]

@@ -29,11 +29,15 @@ the column numbers are the manual's, counting STX as column 1)::
     521-524 519-522 optional external sensors (temperature, humidity, wind speed, direction)
     last        checksum, 2 hex digits, then CR LF ETX
 
-Checksum (manual footnote): the two's complement of the sum of all characters, control
-characters included, without the checksum itself; its lowest byte as two hex digits. The
-footnote lists ETX/CR/LF among the summed characters although they follow the checksum, so
-both readings are accepted: the sum from STX up to the ``;`` before the checksum, or with the
-trailing bytes of the frame (or CR LF ETX) added. A checksum is present when the field count
+Checksum (manual 021341/07/11, footnote 8 of telegram 4): the two's complement of the sum of
+all characters, control characters included, without the checksum itself; its lowest byte as
+two hex digits. The footnote lists ETX/CR/LF among the summed characters although they follow
+the checksum, so both readings are accepted: the sum from STX up to the ``;`` before the
+checksum, or with the trailing bytes of the frame (or CR LF ETX) added. Real sensors write
+it a constant away from that rule (see :func:`checksum_offset`); option ``checksum``:
+``auto`` (verify when present, the default and what the live reader does), ``require``,
+``report`` (verify, never refuse: ``checksum_ok`` and ``checksum_offset`` in the reading),
+``ignore``. A checksum is present when the field count
 says so (520 or 524 values); loggers also store shortened telegrams (Leipzig's LIM keeps
 columns 2-23, cloudnetpy's ``truncate_columns``): any prefix of 17 to 79 values is read, a
 count between the prefix and the full telegram is a ParseError.
@@ -53,15 +57,38 @@ from __future__ import annotations
 
 import datetime as dt
 import re
-import zoneinfo
 from typing import Any
 
 from drivers.errors import ConfigError
 
-from .base import DriverSpec, Frame, ParseError, Reading, SerialDefaults, with_defaults
-from .framing import DelimitedOrLineFramer
+from .base import (
+    DriverSpec,
+    Frame,
+    ParseError,
+    Reading,
+    SerialDefaults,
+    sensor_zone,
+    with_defaults,
+)
+from .framing import (
+    PREFIX_ISO,
+    PREFIX_TOA5,
+    PREFIX_YMDHMS,
+    DelimitedOrLineFramer,
+    first_prefix,
+    regex_prefix,
+    unix_prefix,
+)
 
-__all__ = ["DRIVER", "check_options", "checksum", "make_framer", "parse", "poll_command"]
+__all__ = [
+    "DRIVER",
+    "check_options",
+    "checksum",
+    "checksum_offset",
+    "make_framer",
+    "parse",
+    "poll_command",
+]
 
 NAME = "thies-lnm"
 STX, ETX = b"\x02", b"\x03"
@@ -70,7 +97,7 @@ DEFAULTS: dict[str, Any] = {
     "device_id": 0,
     "telegram": 4,
     "checksum": "auto",
-    "clock": "instrument",
+    "clock": "auto",
     "timezone": "UTC",
     "n_fields": None,
 }
@@ -100,6 +127,10 @@ MIN_FIELDS = 17  # up to the visibility
 PREFIX_MAX = 79  # everything before the spectrum
 FULL_COUNTS = {519: False, 520: True, 523: False, 524: True}  # count -> has a checksum
 
+#: ``checksum``: verify when present, require one, verify and say it in the reading
+#: (``checksum_ok``, ``checksum_offset``) without refusing it, or do not verify.
+CHECKSUM_MODES = ("auto", "require", "report", "ignore")
+
 _DATE = re.compile(r"(\d{2})\.(\d{2})\.(\d{2}|\d{4})")
 _TIME = re.compile(r"(\d{2}):(\d{2}):(\d{2})")
 _HEX2 = re.compile(r"[0-9A-Fa-f]{2}")
@@ -113,29 +144,47 @@ def check_options(options: dict[str, Any]) -> dict[str, Any]:
         value = out[key]
         if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
             raise ConfigError(f"options.{key}: expected an integer in {low}...{high}")
-    if out["checksum"] not in ("auto", "require", "ignore"):
-        raise ConfigError('options.checksum: expected "auto", "require" or "ignore"')
-    if out["clock"] not in ("instrument", "receiver"):
-        raise ConfigError('options.clock: expected "instrument" or "receiver"')
-    out["timezone"] = _check_zone(out["timezone"])
+    if out["checksum"] not in CHECKSUM_MODES:
+        raise ConfigError('options.checksum: expected "auto", "require", "report" or "ignore"')
+    if out["clock"] not in ("auto", "instrument", "receiver"):
+        raise ConfigError('options.clock: expected "auto", "instrument" or "receiver"')
+    sensor_zone(out["timezone"])
     n = out["n_fields"]
     if n is not None and (isinstance(n, bool) or not isinstance(n, int) or n < MIN_FIELDS):
         raise ConfigError(f"options.n_fields: expected an integer >= {MIN_FIELDS}")
     return out
 
 
-def _check_zone(name: Any) -> str:
-    try:
-        zoneinfo.ZoneInfo(str(name))
-    except (zoneinfo.ZoneInfoNotFoundError, ValueError) as exc:
-        raise ConfigError(f"options.timezone: unknown time zone {name!r}") from exc
-    return str(name)
+#: Logger stamps before a telegram on its line: ``2024-10-03 00:00:41;``, ISO 8601,
+#: ``YYYYMMDDhhmmss;``, Unix seconds, a Campbell TOA5 row ``"2024-04-14 00:01:00",552609,"``.
+_LOGGER_PREFIX = first_prefix(
+    regex_prefix(PREFIX_TOA5),
+    regex_prefix(PREFIX_YMDHMS),
+    regex_prefix(PREFIX_ISO),
+    unix_prefix,
+)
+
+
+def _is_header(line: bytes) -> bool:
+    """A header line of a logger's file (column names, TOA5 metadata), not a telegram: it
+    has columns but does not start with the device address's digits."""
+    columns = line.count(b";") + line.count(b",")
+    return columns >= 2 and not line.lstrip(b" \x02")[:1].isdigit()
 
 
 def make_framer(options: dict[str, Any]) -> DelimitedOrLineFramer:
     """STX…ETX telegrams (a last one cut before its ETX is still handed out), or one telegram
-    a line where a logger stripped STX and ETX: the capture's first bytes tell which."""
-    return DelimitedOrLineFramer(STX, ETX, marker=b";", min_markers=MIN_FIELDS, flush_partial=True)
+    a line where a logger stripped STX and ETX (with or without its stamp before it, under
+    header lines or not): the capture's first bytes tell which."""
+    return DelimitedOrLineFramer(
+        STX,
+        ETX,
+        marker=b";",
+        min_markers=MIN_FIELDS,
+        flush_partial=True,
+        line_prefix=_LOGGER_PREFIX,
+        is_header=_is_header,
+    )
 
 
 def poll_command(options: dict[str, Any]) -> bytes:
@@ -153,10 +202,12 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
     """One telegram 4 (whole or a logger's prefix of it) -> Reading; ParseError if unreadable."""
     options = check_options(options or {})
     raw = frame.data
+    if raw[:1] == b'"':  # a telegram a logger stored as a quoted string (TOA5)
+        raw = raw.strip(b'"\r\n')
     if _TEXT.fullmatch(raw) is None:
         raise ParseError("non-ASCII bytes in the telegram (wrong baud rate or noise?)")
     body = raw[raw.index(STX) + 1 :] if STX in raw else raw
-    values = body.decode("ascii").strip("\x03\r\n").split(";")
+    values = body.decode("ascii").strip('\x03\r\n"').split(";")
     if values and values[-1].strip() == "":
         values.pop()
     n = len(values)
@@ -166,38 +217,65 @@ def parse(frame: Frame, options: dict[str, Any] | None = None) -> Reading:
             raise ParseError(f"wrong field count {n} (options.n_fields = {options['n_fields']})")
     elif n not in FULL_COUNTS and not MIN_FIELDS <= n <= PREFIX_MAX:
         raise ParseError(f"wrong field count {n} for telegram 4")
+    mode = options["checksum"]
+    report: dict[str, Any] = {}
     if has_checksum:
-        _verify(raw, values[-1].strip(), options["checksum"])
+        offset = None if mode == "ignore" else checksum_offset(raw, values[-1].strip())
+        if offset is not None and mode != "report":
+            manual = checksum(_summed(raw, values[-1].strip()))
+            raise ParseError(
+                f"checksum mismatch: telegram says {values[-1].strip()}, computed {manual} "
+                "(two's complement of the byte sum from STX to the ';' before it)"
+            )
+        if mode == "report":
+            report = {"checksum_ok": offset is None}
+            if offset is not None:
+                report["checksum_offset"] = f"{offset:02X}"
         values = values[:-1]
-    elif options["checksum"] == "require":
+    elif mode == "require":
         raise ParseError("no checksum in the telegram")
-    return _reading(values, frame, options)
+    elif mode == "report":
+        report = {"checksum_ok": None}
+    reading = _reading(values, frame, options)
+    if report:
+        reading.extra.update(report)
+    return reading
 
 
-def _verify(raw: bytes, cs: str, mode: str) -> None:
-    if mode == "ignore":
-        return
+def _summed(raw: bytes, cs: str) -> bytes:
+    """The bytes the manual's checksum covers: STX up to the ``;`` before the checksum."""
+    at = raw.rfind(b";" + cs.encode("ascii")) + 1
+    before = raw[:at]
+    return before[before.index(STX) :] if STX in before else STX + before
+
+
+def checksum_offset(raw: bytes, cs: str) -> int | None:
+    """None when the telegram's checksum ``cs`` matches, else how far it is from the
+    manual's rule: ``(cs - computed) mod 256``.
+
+    The manual's rule is summed from STX to the ``;`` before the checksum (STX added back
+    where a logger stripped it); the sum with the trailing CR LF ETX, which the manual's
+    footnote also lists, is accepted too. Every real capture found so far (five files of four
+    sensors, firmware 2.52 to 2.70, cloudnetpy's tests) carries a checksum a constant away
+    from this rule (0xAB for 520 values, 0xA5 with the four external-sensor values): the
+    same offset on every telegram of a file is a convention, not corruption
+    (``drivers.instruments.decode`` says so once).
+    """
     if _HEX2.fullmatch(cs) is None:
         raise ParseError(f"bad checksum field {cs[:8]!r}")
+    summed = _summed(raw, cs)
     at = raw.rfind(b";" + cs.encode("ascii")) + 1
-    before, after = raw[:at], raw[at + 2 :]
-    candidates = {
-        checksum(before),
-        checksum(before + after),
-        checksum(before + b"\r\n\x03"),
-    }
-    if STX not in raw:  # a logger stripped STX: the sensor summed it
-        candidates.add(checksum(STX + before))
-    if cs.upper() not in candidates:
-        raise ParseError(f"checksum mismatch: telegram says {cs}, computed {checksum(before)}")
+    after = raw[at + 2 :]
+    candidates = {checksum(summed), checksum(summed + after), checksum(summed + b"\r\n\x03")}
+    if cs.upper() in candidates:
+        return None
+    return (int(cs, 16) - int(checksum(summed), 16)) & 0xFF
 
 
 def _reading(v: list[str], frame: Frame, options: dict[str, Any]) -> Reading:
     if not v[0].strip().isdigit():
         raise ParseError(f"bad device address {v[0][:8]!r}")
-    t_ns = frame.t_ns
-    if options["clock"] == "instrument":
-        t_ns = _time_ns(v[3], v[4], options["timezone"])
+    t_ns, clocks = _clock(v, frame, options)
     status_values = [_int(x, "status") for x in v[STATUS_FROM : STATUS_FROM + len(STATUS_NAMES)]]
     status, fault = _status(status_values)
     extra: dict[str, Any] = {
@@ -210,6 +288,7 @@ def _reading(v: list[str], frame: Frame, options: dict[str, Any]) -> Reading:
         "rain_rate_5min_mm_h": _float(v[8], "intensity 5min"),
         "rain_rate_liquid_mm_h": _float(v[13], "liquid intensity"),
         "rain_rate_solid_mm_h": _float(v[14], "solid intensity"),
+        **clocks,
     }
     optional = (
         (17, "reflectivity_dbz"),
@@ -247,7 +326,27 @@ def _status(values: list[int | None]) -> tuple[str | None, bool | None]:
     return (",".join(names) if names else "ok"), fault
 
 
-def _time_ns(date: str, time: str, zone: str) -> int:
+def _clock(v: list[str], frame: Frame, options: dict[str, Any]) -> tuple[int | None, dict]:
+    """The reading's time and what says which clock gave it.
+
+    ``clock = "auto"``: the logger's stamp (or, live, the receive time) when the frame has
+    one, else the sensor's clock; ``"instrument"``: the sensor's; ``"receiver"``: the frame's.
+    A sensor date that cannot be read is a ParseError only when nothing else dates the reading.
+    """
+    mode, logger_ns = options["clock"], frame.t_ns
+    if mode == "receiver":
+        return logger_ns, {"time_source": "logger" if logger_ns is not None else None}
+    if mode == "instrument" or logger_ns is None:
+        return _time_ns(v[3], v[4], options["timezone"]), {"time_source": "sensor"}
+    try:
+        sensor_ns = _time_ns(v[3], v[4], options["timezone"])
+    except ParseError:
+        return logger_ns, {"time_source": "logger"}
+    offset = round((sensor_ns - logger_ns) / 1e9, 3)
+    return logger_ns, {"time_source": "logger", "sensor_clock_offset_s": offset}
+
+
+def _time_ns(date: str, time: str, zone: str | float) -> int:
     d, t = _DATE.fullmatch(date.strip()), _TIME.fullmatch(time.strip())
     if d is None or t is None:
         raise ParseError(f"bad date/time {date[:12]!r} {time[:10]!r}")
@@ -255,7 +354,7 @@ def _time_ns(date: str, time: str, zone: str) -> int:
     try:
         local = dt.datetime(
             year, int(d[2]), int(d[1]), int(t[1]), int(t[2]), int(t[3]),
-            tzinfo=zoneinfo.ZoneInfo(zone),
+            tzinfo=sensor_zone(zone),
         )  # fmt: skip
     except ValueError as exc:
         raise ParseError(f"impossible date/time {date} {time}") from exc
@@ -295,5 +394,8 @@ DRIVER = DriverSpec(
     modes=("automatic", "polled"),
     poll_command=poll_command,
     check_options=check_options,
-    description="Thies Clima LNM/LPM laser disdrometer, telegram 4 (STX…ETX, checksum)",
+    reports_checksum=True,
+    description="Thies Clima LNM/LPM laser disdrometer telegram 4: ';'-separated values "
+    "from the device address (17 to 79 of them, or 519/520/523/524 with the spectrum), "
+    "within STX…ETX or one a line, with or without a logger's stamp before them",
 )

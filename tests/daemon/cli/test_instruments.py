@@ -135,3 +135,50 @@ def test_errors_are_one_line_and_exit_2(tmp_path: Path, args: list[str], names: 
     lines = [line for line in proc.stderr.splitlines() if line.strip()]
     assert proc.returncode == 2, proc.stderr
     assert len(lines) == 1 and lines[0].startswith("weatherd: error: ") and names in lines[0]
+
+
+def test_time_option_picks_the_clock_and_the_off_clock_is_said_once(tmp_path: Path) -> None:
+    answer = b"TYP OP4A\r\n01:0000.123\r\n02:0012.34\r\n03:61\r\n20:00:30:27\r\n21:14.01.2024\r\n"
+    capture = tmp_path / "hyytiala-like.txt"
+    capture.write_bytes((b"[2024-01-14 00:00:00\r\n" + answer) * 3)
+    got = {}
+    for time in ("logger", "sensor"):
+        proc = decode("--driver", "ott-parsivel", capture, "--time", time)
+        assert proc.returncode == 0, proc.stderr
+        got[time] = [json.loads(line) for line in proc.stdout.splitlines()]
+        assert proc.stderr.count("the sensor clock is off by +30 min 27 s") == 1, proc.stderr
+    assert {(r["t"], r["time_source"]) for r in got["logger"]} == {
+        ("2024-01-14T00:00:00Z", "logger")
+    }
+    assert {(r["t"], r["time_source"], r["logger_t"]) for r in got["sensor"]} == {
+        ("2024-01-14T00:30:27Z", "sensor", "2024-01-14T00:00:00Z")
+    }
+
+
+DATA = Path(__file__).parents[2] / "drivers" / "instruments" / "data"
+
+
+def test_a_checksum_convention_is_said_once_and_the_readings_kept() -> None:
+    capture = DATA / "thies_2025060200.txt"
+    proc = decode("--driver", "thies-lnm", capture)
+    assert proc.returncode == 0, proc.stderr
+    assert len(proc.stdout.splitlines()) == 3
+    lines = proc.stderr.splitlines()
+    assert len(lines) == 2 and "fail their checksum the same way" in lines[0], proc.stderr
+    assert "3 readings, 0 bad frame(s)" in lines[1]
+    proc = decode("--driver", "thies-lnm", capture, "--checksum", "enforce")
+    assert proc.stdout == "" and "3 bad frame(s)" in proc.stderr
+    proc = decode("--driver", "thies-lnm", capture, "--checksum", "report")
+    assert [json.loads(line)["checksum_ok"] for line in proc.stdout.splitlines()] == [False] * 3
+    assert "same way" not in proc.stderr
+
+
+@pytest.mark.parametrize("driver", ["thies-lnm", "ott-parsivel"])
+def test_a_file_without_any_reading_says_what_was_expected(tmp_path: Path, driver: str) -> None:
+    capture = tmp_path / "notes.txt"
+    capture.write_text("hello world\nnothing here\n")
+    proc = decode("--driver", driver, capture)
+    assert proc.returncode == 0 and proc.stdout == ""
+    said = [line for line in proc.stderr.splitlines() if "no reading" in line]
+    assert len(said) == 1 and f"{driver} expects" in said[0] and "telegram" in said[0]
+    assert f"{capture}:1:" in proc.stderr  # and each line says why it is not one

@@ -83,6 +83,11 @@ def test_22_column_variant_uses_the_logger_utc_time():
     assert r.extra["serial_number"] == "12345"
     assert r.extra["outside_temperature_c"] == 12.5
     assert r.temperature_c == 12.5  # the reading's own temperature, as for a t3 telegram
+    # the gauge's clock, 2 h ahead (CEST): the logger's dates the reading, both said
+    assert r.extra["time_source"] == "logger"
+    assert r.extra["sensor_clock_offset_s"] == 2 * 3600 - 21
+    local = lambrecht.parse(Frame(line), {"timezone": "Europe/Berlin"})
+    assert local.extra["sensor_clock_offset_s"] == -21
 
 
 def test_t3_telegram_with_checksum():
@@ -91,6 +96,7 @@ def test_t3_telegram_with_checksum():
     assert r.rain_rate_mm_h == 1.234 and r.rain_accum_mm == 12.345
     assert r.temperature_c == -1.5 and r.extra["heating"] == 1
     assert r.status == "ok" and r.fault is False
+    assert r.extra["time_source"] == "sensor"
 
 
 def test_t2_telegram_stopped_and_missing_outside_temperature():

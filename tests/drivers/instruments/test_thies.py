@@ -175,10 +175,16 @@ def test_stream_with_power_up_garbage_split_and_merged_reads():
 
 
 def test_timezone_and_receiver_clock():
-    frame = Frame(telegram(), t_ns=1_715_682_000_000_000_000)
-    local = thies.parse(frame, {"timezone": "Europe/Berlin"})
+    frame = Frame(telegram(), t_ns=1_715_682_000_000_000_000)  # 2024-05-14T10:20:00Z
+    local = thies.parse(frame, {"timezone": "Europe/Berlin", "clock": "instrument"})
     assert local.to_json()["t"] == "2024-05-14T08:31:00Z"
+    assert thies.parse(Frame(telegram()), {"timezone": -6}).to_json()["t"] == (
+        "2024-05-14T16:31:00Z"
+    )
     assert thies.parse(frame, {"clock": "receiver"}).t_ns == frame.t_ns
+    auto = thies.parse(frame, {"timezone": "Europe/Berlin"}).to_json()
+    assert auto["t"] == "2024-05-14T10:20:00Z" and auto["time_source"] == "logger"
+    assert auto["sensor_clock_offset_s"] == -(60 + 49) * 60
 
 
 def test_poll_command():
