@@ -140,6 +140,10 @@ class DecisionParams:
     miss_measurement_var: float = 0.6
     #: Beyond the paper: a fit needs at least this many blobs to be a measurement at all.
     min_blobs: int = 12
+    #: Beyond the paper: a fit from fewer blobs is a noisier measurement. Its variance is
+    #: ``measurement_var * max(1, measurement_blobs / n_eff)``, n_eff the effective number of
+    #: blobs of the HOS (their weights' (sum w)^2 / sum w^2); 0 keeps the paper's constant.
+    measurement_blobs: float = 100.0
     #: Beyond the paper: a fitted Gaussian wider than this is not a streak population.
     sigma_max: float = math.radians(36.0)
     #: Beyond the paper: precipitation falls. A streak population whose mean orientation is
@@ -159,6 +163,7 @@ class DecisionParams:
         _check(self.dwell_off_frames >= 1, "dwell_off_frames", "must be >= 1")
         _check(self.miss_measurement_var > 0, "miss_measurement_var", "must be > 0")
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
+        _check(self.measurement_blobs >= 0, "measurement_blobs", "must be >= 0")
         _check(self.sigma_max > 0, "sigma_max", "must be > 0")
         _check(0 < self.max_tilt <= math.pi / 2, "max_tilt", "must be in (0, 90] degrees")
         _check(self.s_b > 0, "s_b", "must be > 0")

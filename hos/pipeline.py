@@ -351,6 +351,7 @@ class HosDetector:
             dtheta_max=hp.dtheta_max,
         )
         S = float(hist.sum())
+        n_eff = 0.0
         if idx.size:
             mp = p.mixture
             weights = mom.a[idx]
@@ -379,7 +380,9 @@ class HosDetector:
             and fit.sigma <= dp.sigma_max
             and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
         ):
-            smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma))
+            # Beyond the paper: the variance of a fit grows as its blobs get fewer.
+            var = dp.measurement_var * max(1.0, dp.measurement_blobs / max(n_eff, 1.0))
+            smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma), measurement_var=var)
         else:
             smoothed = self._smoother.update(None)
         rain = smoothed.rain and state == State.OK

@@ -100,9 +100,18 @@ class ParameterSmoother:
         """Diagonal of the state covariance P (Pi, mu, sigma)."""
         return self._p[0], self._p[1], self._p[2]
 
-    def update(self, measurement: tuple[float, float, float] | None) -> SmoothedState:
-        """Predict, then update with a fitted (Pi, mu, sigma), or with a miss when None."""
+    def update(
+        self,
+        measurement: tuple[float, float, float] | None,
+        *,
+        measurement_var: float | None = None,
+    ) -> SmoothedState:
+        """Predict, then update with a fitted (Pi, mu, sigma), or with a miss when None.
+
+        ``measurement_var`` overrides the parameters' measurement variance for this frame (a fit
+        from few blobs is a noisier measurement)."""
         p = self.params
+        r = p.measurement_var if measurement_var is None else measurement_var
         x, var = self._x, self._p
         for i in range(3):
             x[i], var[i] = kalman_predict(x[i], var[i], p.process_var)
@@ -111,9 +120,9 @@ class ParameterSmoother:
         else:
             pi, mu, sigma = measurement
             mu_near = x[1] + _wrap(mu - x[1])
-            x[0], var[0] = kalman_update(x[0], var[0], float(pi), p.measurement_var)
-            x[1], var[1] = kalman_update(x[1], var[1], mu_near, p.measurement_var)
-            x[2], var[2] = kalman_update(x[2], var[2], float(sigma), p.measurement_var)
+            x[0], var[0] = kalman_update(x[0], var[0], float(pi), r)
+            x[1], var[1] = kalman_update(x[1], var[1], mu_near, r)
+            x[2], var[2] = kalman_update(x[2], var[2], float(sigma), r)
         x[0] = min(max(x[0], 0.0), 1.0)
         x[1] = x[1] % math.pi
         x[2] = max(x[2], 1e-3)

@@ -132,3 +132,15 @@ def test_importing_the_detector_does_not_import_filterpy():
         [sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=root
     )
     assert out.stdout.strip() == "False"
+
+
+def test_a_noisier_measurement_moves_the_state_less():
+    from hos.smoothing import ParameterSmoother
+
+    a, b = ParameterSmoother(), ParameterSmoother()
+    a.update((0.8, 1.5, 0.2))
+    b.update((0.8, 1.5, 0.2), measurement_var=0.5)
+    assert 0.0 < b.state.pi < a.state.pi
+    c = ParameterSmoother()
+    c.update((0.8, 1.5, 0.2), measurement_var=c.params.measurement_var)
+    assert c.state == a.state  # the parameters' own variance by default

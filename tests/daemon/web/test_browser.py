@@ -22,6 +22,7 @@ import pytest
 from playwright.sync_api import Error as PlaywrightError
 
 from daemon.config import load_config
+from tests.daemon.service.test_e2e_instruments import SimulatedPwd
 from tests.daemon.service.test_e2e_run import Daemon
 from tests.zenoh_tools import free_port
 
@@ -38,6 +39,12 @@ state_dir = "{state}"
 [[camera]]
 id = "street"   # the demo street
 source = "demo:"
+
+[[instrument]]
+id = "gauge"
+driver = "vaisala-pwd"
+kind = "gauge"
+port = "{gauge}"
 
 [zenoh]
 enabled = false
@@ -108,9 +115,14 @@ def test_status_page_in_a_real_browser(browser, tmp_path: Path) -> None:
     password.write_text(PASSWORD + "\n")
     password.chmod(0o600)
     config = tmp_path / "weatherd.toml"
+    gauge = SimulatedPwd(tmp_path / "gauge", "1", polled=False)  # a serial gauge on a pty
     config.write_text(
         CONFIG.format(
-            state=tmp_path / "state", recordings=tmp_path / "rec", port=port, password=password
+            state=tmp_path / "state",
+            recordings=tmp_path / "rec",
+            port=port,
+            password=password,
+            gauge=tmp_path / "gauge",
         )
     )
     url = f"http://127.0.0.1:{port}/"
@@ -145,6 +157,14 @@ def test_status_page_in_a_real_browser(browser, tmp_path: Path) -> None:
         page.wait_for_function(
             "/dry|rain/.test(document.querySelector('#precipitation').className)", timeout=30_000
         )
+
+        # The gauge's reading, and the fusion's use of it.
+        page.wait_for_function(
+            "document.querySelector('#instruments tbody').innerText.includes('4.00 mm/h')",
+            timeout=20_000,
+        )
+        row = page.inner_text("#instruments tbody tr")
+        assert row.startswith("gauge") and "vaisala-pwd" in row
 
         # The overlay image is replaced as new frames come.
         page.wait_for_function("document.querySelector('.overlay').dataset.updated", timeout=20_000)
@@ -226,4 +246,5 @@ def test_status_page_in_a_real_browser(browser, tmp_path: Path) -> None:
         ]
         assert outside == []
     finally:
+        gauge.pull()
         assert daemon.stop() == 0, daemon.stderr()
