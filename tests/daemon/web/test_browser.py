@@ -22,7 +22,7 @@ import pytest
 from playwright.sync_api import Error as PlaywrightError
 
 from daemon.config import load_config
-from tests.daemon.service.test_e2e_instruments import SimulatedPwd
+from tests.daemon.service.test_e2e_instruments import SimulatedPwd, pwd_message
 from tests.daemon.service.test_e2e_run import Daemon
 from tests.zenoh_tools import free_port
 
@@ -93,6 +93,18 @@ def _get(url: str) -> object:
         return json.loads(r.read())
 
 
+class DryGauge(SimulatedPwd):
+    """A PWD used as a rain gauge on a pty, measuring no rain (so that the site's state follows
+    the camera)."""
+
+    def _run(self) -> None:
+        while not self._stop.wait(0.5):
+            try:
+                os.write(self.master, pwd_message(self.unit, rate=0.0, wawa=0))
+            except OSError:
+                return
+
+
 def daemon_get_401(url: str) -> str:
     """A request with a wrong password, as a script would send it: the body of the 401."""
     token = base64.b64encode(b"tech:wrong").decode()
@@ -115,7 +127,7 @@ def test_status_page_in_a_real_browser(browser, tmp_path: Path) -> None:
     password.write_text(PASSWORD + "\n")
     password.chmod(0o600)
     config = tmp_path / "weatherd.toml"
-    gauge = SimulatedPwd(tmp_path / "gauge", "1", polled=False)  # a serial gauge on a pty
+    gauge = DryGauge(tmp_path / "gauge", "1", polled=False)  # a serial gauge on a pty
     config.write_text(
         CONFIG.format(
             state=tmp_path / "state",
@@ -160,7 +172,7 @@ def test_status_page_in_a_real_browser(browser, tmp_path: Path) -> None:
 
         # The gauge's reading, and the fusion's use of it.
         page.wait_for_function(
-            "document.querySelector('#instruments tbody').innerText.includes('4.00 mm/h')",
+            "document.querySelector('#instruments tbody').innerText.includes('0.00 mm/h')",
             timeout=20_000,
         )
         row = page.inner_text("#instruments tbody tr")
