@@ -12,7 +12,7 @@ WHEEL_ARCHS ?= x86_64 aarch64
 WHEEL_PYTHON ?= 3.11
 WHEEL_GLIBC_MINORS := $(shell seq 17 35)
 
-.PHONY: install run test lint format bench lock wheelhouse example clean browser
+.PHONY: install run test lint format bench eval lock wheelhouse example clean browser
 
 install: $(STAMP)
 
@@ -67,6 +67,12 @@ bench: install
 	$(BIN)/python bench/bench_detector.py
 	$(BIN)/python bench/bench_memory.py
 	$(BIN)/python bench/bench_zenoh_sites.py --sites 200 --seconds 20
+
+# The scene-family benchmark: the detector on randomised scenes of a tuning and an evaluation
+# split, scored against the targets of docs/figures.md ("Scene-family benchmark"); a few
+# minutes on 2 cores, and it says how long it took.
+eval: install
+	$(BIN)/python bench/eval_scenes.py
 
 # Resolve pyproject.toml's ranges again to today's newest versions, for every platform
 # (uv's universal resolution), then `make test` and commit both files.

@@ -1,0 +1,303 @@
+"""The scene-family benchmark (``make eval``): the detector on randomised fixed-camera scenes
+it was never tuned on, scored against per-frame truth, one table per split.
+
+    .venv/bin/python bench/eval_scenes.py [--split tuning|evaluation|both] [--per-cell N]
+                                          [--frames N] [--jobs N] [--markdown]
+
+The scenes come from :mod:`drivers.simulator.families`: the tuning split is where a
+parameter may be set; the evaluation split (other seeds, sizes, frame rates, compression,
+traffic, darkness and wind) is only reported. The targets are issue 10's.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections import defaultdict
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from drivers.simulator.families import SPLITS, SceneCase, case_frames, sample_cases
+from hos import HosDetector, State
+
+#: Frames after the start not scored: the detector's warm-up (60 frames) and the first dwell.
+SETTLE = 90
+#: Frames after a change of the truth not scored as detection or false alarm (latency is).
+TRANSITION = 25
+
+TARGETS = {
+    "false rain (% clear frames)": ("<=", 0.5),
+    "false onsets / hour": ("<=", 1.0),
+    "detection (% rain/snow frames)": (">=", 99.0),
+    "latency on (frames)": ("<=", 10.0),
+    "latency off (frames)": ("<=", 10.0),
+    "unstable, static/wind (%)": ("<=", 1.0),
+    "unstable while re-aimed (%)": (">=", 90.0),
+    "orientation error (deg, median)": ("<=", 2.0),
+}
+
+
+@dataclass
+class CaseResult:
+    """Scores of one scene."""
+
+    name: str
+    condition: str
+    camera: str
+    density: float
+    fps: float
+    judged_clear: int = 0
+    false_frames: int = 0
+    false_onsets: int = 0
+    wet: int = 0
+    detected: int = 0
+    unstable: int = 0
+    judged_still: int = 0
+    moving: int = 0
+    unstable_moving: int = 0
+    latency_on: float | None = None
+    latency_off: float | None = None
+    mu_errors: list[float] = field(default_factory=list)
+    r_mean: float = math.nan
+    seconds: float = 0.0
+
+
+def wrapped_deg(a: float, b: float) -> float:
+    """|a - b| between two orientations in radians, in degrees in [0, 90]."""
+    d = (a - b + math.pi / 2) % math.pi - math.pi / 2
+    return abs(math.degrees(d))
+
+
+def false_onsets(verdicts: list[bool]) -> int:
+    """Rises of the verdict (False -> True) in a sequence."""
+    return sum(1 for a, b in zip([False, *verdicts], verdicts, strict=False) if b and not a)
+
+
+def latency(verdicts: list[bool], truth: list[bool], change: int, *, to: bool) -> float | None:
+    """Frames from ``change`` (where the truth becomes ``to``) until the verdict says ``to``;
+    None when it never does before the truth changes again."""
+    for k in range(change, len(verdicts)):
+        if truth[k] != to:
+            return None
+        if verdicts[k] == to:
+            return float(k - change)
+    return None
+
+
+def score(case: SceneCase) -> CaseResult:
+    """Run the detector over ``case`` and score it against the truth."""
+    started = time.perf_counter()
+    det = HosDetector()
+    res = CaseResult(case.name, case.condition, case.camera, case.density, case.fps)
+    verdicts: list[bool] = []
+    truths: list[bool] = []
+    states: list[str] = []
+    moving: list[bool] = []
+    rs: list[float] = []
+    for i, f in enumerate(case_frames(case)):
+        r = det.process(f.gray, i / case.fps)
+        verdicts.append(bool(r.rain))
+        truths.append(f.precipitation)
+        states.append(r.state)
+        moving.append(f.moving)
+        if i >= SETTLE and r.rain and f.precipitation and math.isfinite(f.mu):
+            if math.isfinite(r.mu_smoothed):
+                res.mu_errors.append(wrapped_deg(r.mu_smoothed, f.mu))
+        if i >= SETTLE and f.precipitation and r.state == State.OK and math.isfinite(r.R):
+            rs.append(float(r.R))
+    n = len(verdicts)
+    after_move = case.reaim[1] if case.reaim else n
+    for i in range(SETTLE, n):
+        near_change = any(truths[j] != truths[i] for j in range(max(0, i - TRANSITION), i))
+        if moving[i]:
+            res.moving += 1
+            res.unstable_moving += states[i] == State.UNSTABLE
+            continue
+        if i < after_move:  # a camera that is still (or in the wind), before any re-aim
+            res.judged_still += 1
+            res.unstable += states[i] == State.UNSTABLE
+        if near_change:
+            continue
+        if not truths[i] and states[i] == State.OK:
+            res.judged_clear += 1
+            res.false_frames += verdicts[i]
+        elif truths[i]:
+            res.wet += 1
+            res.detected += verdicts[i] and states[i] == State.OK
+    clear_verdicts = [verdicts[i] for i in range(SETTLE, n) if not truths[i] and not moving[i]]
+    res.false_onsets = false_onsets(clear_verdicts) if case.condition == "clear" else 0
+    if case.rain_frames is not None:
+        on, off = case.rain_frames
+        res.latency_on = latency(verdicts, truths, on, to=True)
+        res.latency_off = latency(verdicts, truths, off, to=False)
+    res.r_mean = float(np.mean(rs)) if rs else math.nan
+    res.seconds = time.perf_counter() - started
+    return res
+
+
+def spearman(x: list[float], y: list[float]) -> float:
+    """Spearman's rank correlation (no ties expected)."""
+    if len(x) < 2:
+        return math.nan
+    rx = np.argsort(np.argsort(x)).astype(float)
+    ry = np.argsort(np.argsort(y)).astype(float)
+    return float(np.corrcoef(rx, ry)[0, 1])
+
+
+def table(results: list[CaseResult]) -> tuple[list[list[str]], dict[str, float]]:
+    """Rows (condition, camera, figures, worst scene) and the split's totals."""
+    cells: dict[tuple[str, str], list[CaseResult]] = defaultdict(list)
+    for r in results:
+        cells[(r.condition, r.camera)].append(r)
+    rows = []
+    for (cond, cam), rs in sorted(cells.items()):
+        clear = sum(r.judged_clear for r in rs)
+        false = sum(r.false_frames for r in rs)
+        wet = sum(r.wet for r in rs)
+        det = sum(r.detected for r in rs)
+        still = sum(r.judged_still for r in rs)
+        unst = sum(r.unstable for r in rs)
+        mov = sum(r.moving for r in rs)
+        unst_mov = sum(r.unstable_moving for r in rs)
+        errs = [e for r in rs for e in r.mu_errors]
+        worst = max(
+            rs,
+            key=lambda r: (
+                (r.false_frames / max(r.judged_clear, 1))
+                + (1 - r.detected / r.wet if r.wet else 0)
+                + r.unstable / max(r.judged_still, 1)
+            ),
+        )
+        rows.append(
+            [
+                cond,
+                cam,
+                f"{100 * false / clear:.2f}" if clear else "-",
+                f"{100 * det / wet:.1f}" if wet else "-",
+                f"{100 * unst / still:.1f}" if still else "-",
+                f"{100 * unst_mov / mov:.0f}" if mov else "-",
+                f"{np.median(errs):.1f}" if errs else "-",
+                _fmt([r.latency_on for r in rs], measured=cond == "transition"),
+                _fmt([r.latency_off for r in rs], measured=cond == "transition"),
+                worst.name,
+            ]
+        )
+    clear_frames = sum(r.judged_clear for r in results)
+    clear_hours = sum(r.judged_clear / r.fps for r in results if r.condition == "clear") / 3600.0
+    still = [r for r in results if r.camera in ("static", "wind")]
+    totals = {
+        "false rain (% clear frames)": 100
+        * sum(r.false_frames for r in results)
+        / max(clear_frames, 1),
+        "false onsets / hour": sum(r.false_onsets for r in results) / max(clear_hours, 1e-9),
+        "detection (% rain/snow frames)": 100
+        * sum(r.detected for r in results)
+        / max(sum(r.wet for r in results), 1),
+        "latency on (frames)": _median([r.latency_on for r in results]),
+        "latency off (frames)": _median([r.latency_off for r in results]),
+        "unstable, static/wind (%)": 100
+        * sum(r.unstable for r in still)
+        / max(sum(r.judged_still for r in still), 1),
+        "unstable while re-aimed (%)": 100
+        * sum(r.unstable_moving for r in results)
+        / max(sum(r.moving for r in results), 1),
+        "orientation error (deg, median)": float(
+            np.median([e for r in results for e in r.mu_errors] or [math.nan])
+        ),
+    }
+    graded = [r for r in results if r.condition in ("drizzle", "light", "moderate", "heavy")]
+    totals["R rank vs density (Spearman)"] = spearman(
+        [r.density for r in graded if math.isfinite(r.r_mean)],
+        [r.r_mean for r in graded if math.isfinite(r.r_mean)],
+    )
+    return rows, totals
+
+
+def _fmt(values: list[float | None], *, measured: bool = True) -> str:
+    v = [x for x in values if x is not None]
+    missing = sum(1 for x in values if x is None)
+    if not measured or not values:
+        return "-"
+    text = f"{np.median(v):.0f}" if v else "never"
+    return text + (f" ({missing} never)" if v and missing else "")
+
+
+def _median(values: list[float | None]) -> float:
+    v = [x for x in values if x is not None]
+    return float(np.median(v)) if v else math.nan
+
+
+HEADER = [
+    "condition",
+    "camera",
+    "false rain %",
+    "detected %",
+    "unstable %",
+    "unstable moving %",
+    "mu err deg",
+    "latency on",
+    "latency off",
+    "worst scene",
+]
+
+
+def _patch_results(results: list[CaseResult]) -> None:
+    for r in results:  # cases without a transition have no latency
+        if r.condition != "transition":
+            r.latency_on = r.latency_off = None
+
+
+def render(split: str, results: list[CaseResult], seconds: float, *, markdown: bool) -> str:
+    rows, totals = table(results)
+    lines = [f"## {split} split: {len(results)} scenes, {seconds:.0f} s"]
+    if markdown:
+        lines.append("| " + " | ".join(HEADER) + " |")
+        lines.append("|" + "---|" * len(HEADER))
+        lines += ["| " + " | ".join(row) + " |" for row in rows]
+    else:
+        widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(HEADER)]
+        lines.append("  ".join(h.ljust(w) for h, w in zip(HEADER, widths, strict=True)))
+        lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    lines.append("")
+    for key, value in totals.items():
+        target = TARGETS.get(key)
+        verdict = ""
+        if target is not None and math.isfinite(value):
+            op, bound = target
+            ok = value <= bound if op == "<=" else value >= bound
+            verdict = f"  target {op} {bound:g}: {'PASS' if ok else 'FAIL'}"
+        lines.append(f"- {key}: {value:.2f}{verdict}")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--split", choices=[*SPLITS, "both"], default="both")
+    ap.add_argument("--per-cell", type=int, default=3, help="scenes per condition and camera")
+    ap.add_argument("--frames", type=int, default=375, help="frames per scene")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--markdown", action="store_true")
+    args = ap.parse_args(argv)
+    splits = SPLITS if args.split == "both" else (args.split,)
+    total = time.perf_counter()
+    for split in splits:
+        started = time.perf_counter()
+        cases = sample_cases(split, per_cell=args.per_cell, frames=args.frames)
+        with ProcessPoolExecutor(args.jobs) as pool:
+            results = list(pool.map(score, cases))
+        _patch_results(results)
+        print(render(split, results, time.perf_counter() - started, markdown=args.markdown))
+        print(flush=True)
+    print(f"make eval: {time.perf_counter() - total:.0f} s in all")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,98 @@
+"""The scene-family benchmark's CI subset: its scoring on hand-made sequences, its generator's
+truth, and a few small scenes through the detector (bench/eval_scenes.py; ``make eval`` runs
+the whole benchmark)."""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from drivers.simulator.families import (
+    CONDITIONS,
+    case_frames,
+    sample_case,
+    sample_cases,
+)
+from tests.conftest import REPO
+
+_spec = importlib.util.spec_from_file_location("eval_scenes", REPO / "bench" / "eval_scenes.py")
+ev = importlib.util.module_from_spec(_spec)
+sys.modules["eval_scenes"] = ev  # its dataclasses look their module up
+_spec.loader.exec_module(ev)
+
+
+def test_false_onsets_count_rises() -> None:
+    assert ev.false_onsets([]) == 0
+    assert ev.false_onsets([True]) == 1
+    assert ev.false_onsets([False, True, True, False, True, False]) == 2
+
+
+def test_latency() -> None:
+    truth = [False] * 5 + [True] * 5 + [False] * 5
+    verdict = [False] * 7 + [True] * 5 + [False] * 3
+    assert ev.latency(verdict, truth, 5, to=True) == 2.0
+    assert ev.latency(verdict, truth, 10, to=False) == 2.0
+    assert ev.latency([False] * 15, truth, 5, to=True) is None  # never before the truth ends
+
+
+def test_orientation_error_wraps() -> None:
+    assert ev.wrapped_deg(math.radians(1), math.radians(179)) == pytest.approx(2.0)
+    assert ev.wrapped_deg(math.radians(90), math.radians(80)) == pytest.approx(10.0)
+
+
+def test_spearman() -> None:
+    assert ev.spearman([1, 2, 3], [10, 20, 30]) == pytest.approx(1.0)
+    assert ev.spearman([1, 2, 3], [3, 2, 1]) == pytest.approx(-1.0)
+    assert math.isnan(ev.spearman([1], [1]))
+
+
+def test_the_splits_differ_in_seeds_and_ranges() -> None:
+    tuning = sample_cases("tuning", per_cell=2, frames=10)
+    evaluation = sample_cases("evaluation", per_cell=2, frames=10)
+    assert {c.seed for c in tuning}.isdisjoint({c.seed for c in evaluation})
+    assert {(c.width, c.height) for c in tuning}.isdisjoint(
+        {(c.width, c.height) for c in evaluation}
+    )
+    assert {c.condition for c in tuning} == set(CONDITIONS)
+    assert sample_case("tuning", 3, condition="snow", camera="wind") == sample_case(
+        "tuning", 3, condition="snow", camera="wind"
+    )
+
+
+def test_truth_of_a_transition_and_a_re_aimed_camera() -> None:
+    case = sample_case("tuning", 0, condition="transition", camera="static", frames=30)
+    case = replace(case, width=160, height=120)
+    truth = [f.precipitation for f in case_frames(case)]
+    assert truth == [False] * 10 + [True] * 10 + [False] * 10
+    reaim = sample_case("tuning", 1, condition="clear", camera="reaim", frames=120)
+    reaim = replace(reaim, width=160, height=120)
+    frames = list(case_frames(reaim))
+    first, end = reaim.reaim
+    assert [f.moving for f in frames] == [first <= i < end for i in range(120)]
+    assert not any(f.precipitation for f in frames)
+    # the image moves while the truth says so, and stays at its new aim afterwards
+    assert np.abs(frames[end].gray.astype(int) - frames[first - 1].gray).mean() > 1.0
+
+
+@pytest.mark.slow
+def test_small_scenes_through_the_detector() -> None:
+    """Loose bounds: the figures against the targets are `make eval`'s job."""
+    clear = replace(
+        sample_case("tuning", 0, condition="clear", camera="static", frames=200),
+        width=320,
+        height=240,
+    )
+    rain = replace(
+        sample_case("tuning", 1, condition="moderate", camera="static", frames=200),
+        width=320,
+        height=240,
+    )
+    c, r = ev.score(clear), ev.score(rain)
+    assert c.judged_clear > 50 and c.false_frames <= 0.2 * c.judged_clear
+    assert r.wet > 50 and r.detected >= 0.5 * r.wet
+    assert r.mu_errors and np.median(r.mu_errors) < 10
