@@ -68,7 +68,8 @@ class SceneCase:
 
     ``reaim`` is the (first, last + 1) frames during which the camera is panned by ``pan_px``
     per frame (then it stays at its new aim); None for a camera that is never moved.
-    ``density`` is the precipitation's streak count (0 when clear), for the rank test of R.
+    ``density`` is the precipitation's streak count for a 640x360 frame (0 when clear), for the
+    rank test of R; the count drawn scales with the frame's area.
     """
 
     name: str
@@ -122,10 +123,13 @@ def sample_case(
     density = 0.0
     rain_frames = None
     mu = float(rng.uniform(70.0, 110.0))
+    # The conditions' streak counts are for 640x360: the same rain over another frame size
+    # draws as many streaks per pixel.
+    area = width * height / (640 * 360)
     if condition in _RAIN or condition == "transition":
         streaks = _RAIN.get(condition, _RAIN["moderate"])
-        streaks = replace(streaks, mu_deg=mu)
-        density = float(streaks.count)
+        streaks = replace(streaks, mu_deg=mu, count=max(1, round(streaks.count * area)))
+        density = float(streaks.count) / area
         schedule = None
         if condition == "transition":
             third = frames // 3
@@ -133,8 +137,9 @@ def sample_case(
             schedule = [0.0] * third + [1.0] * third + [0.0]
         params = replace(params, rain=streaks, schedule=schedule)
     elif condition == "snow":
-        params = replace(params, snow=SnowParams())
-        density = float(SnowParams().count)
+        flakes = SnowParams()
+        params = replace(params, snow=replace(flakes, count=max(1, round(flakes.count * area))))
+        density = float(flakes.count)
     reaim = None
     pan = (0.0, 0.0)
     if camera == "reaim":
