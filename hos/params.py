@@ -196,6 +196,9 @@ class RobustnessParams:
     #: Smaller offsets are left alone: resampling a compressed frame costs more than it saves.
     stabilise_min_px: float = 0.25
     motion_frame_px: float = 0.6
+    #: A frame offset by more than this is a camera being moved (knocked, re-aimed), not the
+    #: wind: ``unstable`` at once.
+    motion_far_px: float = 3.0
     #: Fraction of recent frames that moved above which the camera is declared ``unstable``.
     motion_unstable_fraction: float = 0.3
     motion_window_frames: int = 25
@@ -220,6 +223,7 @@ class RobustnessParams:
         _check(self.reference_frames >= 1, "reference_frames", "must be >= 1")
         _check(self.motion_frame_px > 0, "motion_frame_px", "must be > 0")
         _check(self.stabilise_min_px >= 0, "stabilise_min_px", "must be >= 0")
+        _check(self.motion_far_px > 0, "motion_far_px", "must be > 0")
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")

@@ -29,6 +29,7 @@ precipitation type (``analyse``).
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import cv2
@@ -96,6 +97,8 @@ class Segmented:
     #: the camera's offset from where the background model learnt the scene, pixels at full
     #: resolution (``image`` was translated back by it when below ``motion_frame_px``)
     motion_px: float
+    #: how far the camera went over its last few frames (pixels at full resolution): a pan
+    pan_px: float
     gain: float
     brightness: float
     #: learning rate given to the background model (< 0: its own), for the running background
@@ -164,6 +167,8 @@ class HosDetector:
         self._gain = 1.0
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
+        self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
+        self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
 
     def _setup(self, shape: tuple[int, int]) -> None:
         self._shape = shape
@@ -224,6 +229,7 @@ class HosDetector:
             foreground=foreground,
             small=corrected_small,
             motion_px=motion_px,
+            pan_px=self._pan(corrected_small),
             gain=self._gain,
             brightness=brightness,
             learning_rate=learning_rate,
@@ -289,7 +295,10 @@ class HosDetector:
         k = 1.0 / rob.motion_window_frames
         self._moving += k * (float(moved) - self._moving)
         state = seg.state
-        if state == State.OK and self._moving > rob.motion_unstable_fraction:
+        # Not the wind, which sways about a position: the camera is being moved.
+        far = motion_px > rob.motion_far_px or seg.pan_px > rob.motion_far_px
+        moved = moved or far
+        if state == State.OK and (far or self._moving > rob.motion_unstable_fraction):
             state = State.UNSTABLE
         elif state == State.SCENE_CHANGE and (moved or self._moving > rob.motion_unstable_fraction):
             state = State.UNSTABLE  # the scene changed because the camera moves
@@ -483,6 +492,24 @@ class HosDetector:
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
 
+    def _pan(self, small: np.ndarray) -> float:
+        """How far the camera went over its last ``_PAN_FRAMES`` frames, pixels at full
+        resolution: the length of the sum of its frame-to-frame translations (the wind's sway
+        goes back and forth; a camera being re-aimed keeps going)."""
+        prev, self._prev_small = self._prev_small, small
+        if prev is None or prev.shape != small.shape:
+            self._steps.clear()
+            return 0.0
+        translation = global_translation_jit if self.compiled else global_translation
+        dx, dy = translation(prev, small)
+        if math.hypot(dx, dy) > 0.5:
+            ddx, ddy = translation(prev, _translate(small, -dx, -dy))
+            dx, dy = dx + ddx, dy + ddy
+        self._steps.append((dx, dy))
+        sx = sum(d[0] for d in self._steps)
+        sy = sum(d[1] for d in self._steps)
+        return math.hypot(sx, sy) * self._scale
+
     def _remember_foreground(self, foreground: np.ndarray, changed: float) -> None:
         """Where the background model saw motion, on the reduced grid, grown by a reduced pixel:
         left out of the next frame's motion estimate (not when most of the image changed)."""
@@ -512,6 +539,8 @@ class HosDetector:
 
 
 _CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+#: Frames over which a pan is measured.
+_PAN_FRAMES = 5
 
 
 def _translate(image: np.ndarray, dx: float, dy: float) -> np.ndarray:

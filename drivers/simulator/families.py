@@ -37,7 +37,7 @@ _RANGES = {
         "foliage": (0.0, 2.0),
         "noise": (0.0, 3.0),
         "darkness": (0.0, 0.5),
-        "wind": (0.1, 0.35),
+        "wind": (0.1, 1.0),
         "seed0": 10_000,
     },
     "evaluation": {
