@@ -97,8 +97,6 @@ class Segmented:
     #: the camera's offset from where the background model learnt the scene, pixels at full
     #: resolution (``image`` was translated back by it when below ``motion_frame_px``)
     motion_px: float
-    #: how far the camera went over its last few frames (pixels at full resolution): a pan
-    pan_px: float
     gain: float
     brightness: float
     #: learning rate given to the background model (< 0: its own), for the running background
@@ -142,6 +140,8 @@ class HosDetector:
         self._photometric: PhotometricRule | None = None
         self._rate_frames = 0  # frames analysed since the rate map was (re)made
         self._moving = 0.0  # fraction of recent frames with the camera off its position
+        self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
+        self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
         self._last_fit: tuple[float, float, float] | None = None
         # beyond the paper: rain or snow (hos/ptype.py)
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
@@ -167,8 +167,6 @@ class HosDetector:
         self._gain = 1.0
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
-        self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
-        self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
 
     def _setup(self, shape: tuple[int, int]) -> None:
         self._shape = shape
@@ -229,7 +227,6 @@ class HosDetector:
             foreground=foreground,
             small=corrected_small,
             motion_px=motion_px,
-            pan_px=self._pan(corrected_small),
             gain=self._gain,
             brightness=brightness,
             learning_rate=learning_rate,
@@ -296,7 +293,8 @@ class HosDetector:
         self._moving += k * (float(moved) - self._moving)
         state = seg.state
         # Not the wind, which sways about a position: the camera is being moved.
-        far = motion_px > rob.motion_far_px or seg.pan_px > rob.motion_far_px
+        pan_px = self._pan(seg.small, seg.scale, still=motion_px <= rob.stabilise_min_px)
+        far = motion_px > rob.motion_far_px or pan_px > rob.motion_far_px
         moved = moved or far
         if state == State.OK and (far or self._moving > rob.motion_unstable_fraction):
             state = State.UNSTABLE
@@ -492,12 +490,14 @@ class HosDetector:
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
 
-    def _pan(self, small: np.ndarray) -> float:
+    def _pan(self, small: np.ndarray, scale: int, *, still: bool) -> float:
         """How far the camera went over its last ``_PAN_FRAMES`` frames, pixels at full
         resolution: the length of the sum of its frame-to-frame translations (the wind's sway
-        goes back and forth; a camera being re-aimed keeps going)."""
+        goes back and forth; a camera being re-aimed keeps going). Not measured while the
+        camera is ``still`` where it was learnt (it cannot be panning): no cost on a fixed
+        camera."""
         prev, self._prev_small = self._prev_small, small
-        if prev is None or prev.shape != small.shape:
+        if still or prev is None or prev.shape != small.shape:
             self._steps.clear()
             return 0.0
         translation = global_translation_jit if self.compiled else global_translation
@@ -508,7 +508,7 @@ class HosDetector:
         self._steps.append((dx, dy))
         sx = sum(d[0] for d in self._steps)
         sy = sum(d[1] for d in self._steps)
-        return math.hypot(sx, sy) * self._scale
+        return math.hypot(sx, sy) * scale
 
     def _remember_foreground(self, foreground: np.ndarray, changed: float) -> None:
         """Where the background model saw motion, on the reduced grid, grown by a reduced pixel:
