@@ -71,7 +71,10 @@ for _ in range(6):
     rogue.put("weather/SITE/state", forged)
     time.sleep(0.5)
 third = zenoh.open(conf("reader"))
-out["get"] = [r.ok.payload.to_string() for r in third.get("weather/SITE/**") if r.ok]
+# Every reply, not the consolidated latest per key: the daemon's and a rogue's replies for
+# one key otherwise race on their timestamps.
+replies = third.get("weather/SITE/**", consolidation=zenoh.ConsolidationMode.NONE)
+out["get"] = [r.ok.payload.to_string() for r in replies if r.ok]
 out["admin"] = [str(r.ok.key_expr) for r in third.get("@/**") if r.ok]
 out["own_zids"] = [str(third.info.zid()), str(reader.info.zid()), str(rogue.info.zid())]
 for s in (third, rogue, anonymous, reader):
