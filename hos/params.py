@@ -53,6 +53,10 @@ class SegmentationParams:
     min_area: int = 4
     max_area: int = 50
     size_reference_height: int = 480
+    #: Beyond the paper: whatever the resolution, a blob of fewer pixels has no orientation to
+    #: vote with (one pixel's second moments are isotropic; two give 0, 45 or 90 degrees).
+    #: 0 keeps the scaled ``min_area`` alone.
+    min_area_px: int = 3
     #: Learning rate of the running background image used by the photometric rule.
     background_rate: float = 0.02
 
@@ -65,6 +69,7 @@ class SegmentationParams:
         _check(0 <= self.photometric_c < 255, "photometric_c", "must be in [0, 255)")
         _check(1 <= self.min_area <= self.max_area, "min_area", "must be >= 1 and <= max_area")
         _check(self.size_reference_height >= 1, "size_reference_height", "must be >= 1")
+        _check(0 <= self.min_area_px <= self.max_area, "min_area_px", "must be in [0, max_area]")
         _check(0 < self.background_rate <= 1, "background_rate", "must be in (0, 1]")
 
 
@@ -133,13 +138,25 @@ class DecisionParams:
     #: for this many consecutive frames: a few to start (a one-frame blip is not rain), more to
     #: stop (rain tapering off must not flicker the state on and off).
     dwell_on_frames: int = 3
-    dwell_off_frames: int = 8
+    dwell_off_frames: int = 5
     #: Beyond the paper: a frame without a valid fit is evidence of *no* rain. It updates Pi
     #: with a measurement of 0 and this (larger) variance, so that the state decays instead of
     #: freezing at its last value (the weakness noted in section 5).
     miss_measurement_var: float = 0.6
     #: Beyond the paper: a fit needs at least this many blobs to be a measurement at all.
     min_blobs: int = 12
+    #: Beyond the paper: a frame with fewer than ``min_blobs`` streak-sized blobs measures Pi
+    #: as 0 with this variance (sure evidence: rain that stops leaves no blob behind); 0 gives
+    #: it ``miss_measurement_var`` like any other frame without a valid fit.
+    empty_measurement_var: float = 0.1
+    #: Beyond the paper: a frame with fewer than ``min_blobs`` blobs is fitted with the HOS of
+    #: the frames before it added, up to this many frames in all, until ``min_blobs`` are
+    #: reached; the fit's variance is multiplied by the frames pooled. 1: never.
+    pool_frames: int = 4
+    #: ... and such a pooled fit counts only if its Gaussian is this narrow: the outlines of
+    #: a few pedestrians make a broad near-vertical population from frame to frame (31-35
+    #: degrees at 320x240), a few streaks a narrow one.
+    pool_sigma_max: float = math.radians(20.0)
     #: Beyond the paper: a fit from fewer blobs is a noisier measurement. Its variance is
     #: ``measurement_var * max(1, measurement_blobs / n_eff)``, n_eff the effective number of
     #: blobs of the HOS (their weights' (sum w)^2 / sum w^2); 0 keeps the paper's constant.
@@ -162,6 +179,8 @@ class DecisionParams:
         _check(self.dwell_on_frames >= 1, "dwell_on_frames", "must be >= 1")
         _check(self.dwell_off_frames >= 1, "dwell_off_frames", "must be >= 1")
         _check(self.miss_measurement_var > 0, "miss_measurement_var", "must be > 0")
+        _check(self.empty_measurement_var >= 0, "empty_measurement_var", "must be >= 0")
+        _check(self.pool_frames >= 1, "pool_frames", "must be >= 1")
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
         _check(self.measurement_blobs >= 0, "measurement_blobs", "must be >= 0")
         _check(self.sigma_max > 0, "sigma_max", "must be > 0")
@@ -195,10 +214,15 @@ class RobustnessParams:
     stabilise: bool = True
     #: Smaller offsets are left alone: resampling a compressed frame costs more than it saves.
     stabilise_min_px: float = 0.25
-    motion_frame_px: float = 0.6
+    motion_frame_px: float = 1.5
     #: A frame offset by more than this is a camera being moved (knocked, re-aimed), not the
     #: wind: ``unstable`` at once.
     motion_far_px: float = 3.0
+    #: A camera seen off its place by at least this much in the last ``motion_window_frames``
+    #: frames is compared, pixel by pixel, with the brightest background of each 3x3
+    #: neighbourhood (``hos.background.neighbourhood_background``): its edges, up to a pixel
+    #: off, are not candidates. 0: never.
+    shaken_px: float = 0.1
     #: Fraction of recent frames that moved above which the camera is declared ``unstable``.
     motion_unstable_fraction: float = 0.3
     motion_window_frames: int = 25
@@ -224,6 +248,7 @@ class RobustnessParams:
         _check(self.motion_frame_px > 0, "motion_frame_px", "must be > 0")
         _check(self.stabilise_min_px >= 0, "stabilise_min_px", "must be >= 0")
         _check(self.motion_far_px > 0, "motion_far_px", "must be > 0")
+        _check(self.shaken_px >= 0, "shaken_px", "must be >= 0")
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")

@@ -28,6 +28,7 @@ precipitation type (``analyse``).
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections import deque
 from dataclasses import dataclass
@@ -140,8 +141,13 @@ class HosDetector:
         self._photometric: PhotometricRule | None = None
         self._rate_frames = 0  # frames analysed since the rate map was (re)made
         self._moving = 0.0  # fraction of recent frames with the camera off its position
+        self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
+        # the last frames' (HOS, blobs, sum of weights, sum of squared weights), newest first
+        self._pool: deque[tuple[np.ndarray, int, float, float]] = deque(
+            maxlen=max(self.params.decision.pool_frames, 1)
+        )
         self._last_fit: tuple[float, float, float] | None = None
         # beyond the paper: rain or snow (hos/ptype.py)
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
@@ -281,6 +287,7 @@ class HosDetector:
             self._rate_frames = 0
             self._photometric = PhotometricRule(p.segmentation, compiled=self.compiled)
             self._moving = 0.0
+            self._shaken = 0
         self._rate_frames += 1
 
         # 1b. camera motion (beyond the paper): offsets up to motion_frame_px were undone by
@@ -289,23 +296,40 @@ class HosDetector:
         # re-aimed): unstable, even while the background model relearns the scene it shows.
         motion_px = seg.motion_px
         moved = motion_px > rob.motion_frame_px
+        if rob.shaken_px > 0 and motion_px >= rob.shaken_px:
+            self._shaken = rob.motion_window_frames
+        else:
+            self._shaken = max(self._shaken - 1, 0)
         k = 1.0 / rob.motion_window_frames
         self._moving += k * (float(moved) - self._moving)
         state = seg.state
         # Not the wind, which sways about a position: the camera is being moved.
-        pan_px = self._pan(seg.small, seg.scale, still=motion_px <= rob.stabilise_min_px)
+        # Measured while the camera is off its place, and while the scene relearns or the camera
+        # was moving lately: the offset from the reference is unmeasurable (0) once the view
+        # has gone further than the fit can reach.
+        still = (
+            motion_px <= rob.stabilise_min_px
+            and state != State.SCENE_CHANGE
+            and self._moving < 1.0 / rob.motion_window_frames
+        )
+        pan_px = self._pan(seg.small, seg.scale, still=still)
         far = motion_px > rob.motion_far_px or pan_px > rob.motion_far_px
         moved = moved or far
         if state == State.OK and (far or self._moving > rob.motion_unstable_fraction):
             state = State.UNSTABLE
         elif state == State.SCENE_CHANGE and (moved or self._moving > rob.motion_unstable_fraction):
             state = State.UNSTABLE  # the scene changed because the camera moves
+        if state == State.OK and moved:
+            state = State.UNSTABLE  # too far off its place to be judged: not the wind
         hold = state in (State.WARMING_UP, State.SCENE_CHANGE) or moved
 
         # 2b. candidate pixels
         if p.segmentation.method == "mog":
             candidates = self._photometric.candidates(
-                seg.image, seg.foreground, learning_rate=seg.learning_rate
+                seg.image,
+                seg.foreground,
+                learning_rate=seg.learning_rate,
+                neighbourhood=self._shaken > 0,
             )
         else:  # the frame difference rule's mask is the candidates
             candidates = mask_to_index(seg.foreground)
@@ -313,7 +337,7 @@ class HosDetector:
             candidates = candidates[seg.roi[candidates]]
         candidate_fraction = candidates.size / seg.roi_area
         area_scale = (h / p.segmentation.size_reference_height) ** 2
-        min_area = p.segmentation.min_area * area_scale
+        min_area = max(p.segmentation.min_area * area_scale, p.segmentation.min_area_px)
         max_area = p.segmentation.max_area * area_scale
 
         # 3. blobs, size rule, structure rule
@@ -358,13 +382,35 @@ class HosDetector:
             dtheta_max=hp.dtheta_max,
         )
         S = float(hist.sum())
-        n_eff = 0.0
+        weights = mom.a[idx]
+        # Beyond the paper: a frame with fewer than min_blobs blobs is fitted together with the
+        # frames before it, up to decision.pool_frames of them (faint rain at a low resolution
+        # leaves 5-10 streaks a frame; their orientations agree from frame to frame, those of
+        # noise do not).
+        dp = p.decision
+        if hold:
+            self._pool.clear()
+        else:
+            w1, w2 = float(weights.sum()), float(np.sum(weights * weights))
+            self._pool.appendleft((hist, int(idx.size), w1, w2))
+        fitted, n_pooled, pooled = hist, int(idx.size), 1
+        if 0 < idx.size < dp.min_blobs and len(self._pool) > 1:
+            fitted = hist.copy()
+            sw1, sw2 = self._pool[0][2], self._pool[0][3]
+            for other, n_other, o1, o2 in itertools.islice(self._pool, 1, None):
+                if n_pooled >= dp.min_blobs:
+                    break
+                fitted += other
+                n_pooled, sw1, sw2, pooled = n_pooled + n_other, sw1 + o1, sw2 + o2, pooled + 1
+            n_eff = sw1 * sw1 / sw2 if sw2 > 0 else 0.0
+        elif idx.size:
+            n_eff = float(weights.sum()) ** 2 / float(np.sum(weights * weights))
+        else:
+            n_eff = 0.0
         if idx.size:
             mp = p.mixture
-            weights = mom.a[idx]
-            n_eff = float(weights.sum()) ** 2 / float(np.sum(weights * weights))
             fit = (fit_mixture_jit if self.compiled else fit_mixture)(
-                hist,
+                fitted,
                 max_iter=mp.max_iter,
                 tol=mp.tol,
                 gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
@@ -376,20 +422,24 @@ class HosDetector:
             fit = MixtureFit(ok=False, reason="no blobs")
 
         # 6. decision
-        dp = p.decision
+        plausible = (
+            fit.ok
+            and fit.gof_ok
+            and fit.sigma <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
+            and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
+        )
         if hold:
             smoothed = self._smoother.hold()
-        elif (
-            state == State.OK
-            and fit.ok
-            and fit.gof_ok
-            and idx.size >= dp.min_blobs
-            and fit.sigma <= dp.sigma_max
-            and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
-        ):
-            # Beyond the paper: the variance of a fit grows as its blobs get fewer.
-            var = dp.measurement_var * max(1.0, dp.measurement_blobs / max(n_eff, 1.0))
+        elif state == State.OK and plausible and n_pooled >= dp.min_blobs:
+            # Beyond the paper: the variance of a fit grows as its blobs get fewer, and with the
+            # number of frames pooled (each frame's blobs count in that many fits).
+            var = dp.measurement_var * max(1.0, dp.measurement_blobs / max(n_eff, 1.0)) * pooled
             smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma), measurement_var=var)
+        elif idx.size < dp.min_blobs and not plausible and dp.empty_measurement_var > 0:
+            # Beyond the paper: a few blobs that do not even look like a streak population are
+            # sure evidence of no rain (rain that stops leaves nothing behind); a failed fit of
+            # many blobs, or a few blobs that fit (faint rain at a low resolution), much less.
+            smoothed = self._smoother.update(None, measurement_var=dp.empty_measurement_var)
         else:
             smoothed = self._smoother.update(None)
         rain = smoothed.rain and state == State.OK
@@ -447,7 +497,7 @@ class HosDetector:
             R=R,
             n_blobs=int(idx.size),
             n_rain_blobs=int(np.count_nonzero(is_rain)),
-            histogram=hist,
+            histogram=fitted,
             precipitation_type=precipitation_type,
             streak_shape=shape_,
             motion_px=motion_px,

@@ -195,22 +195,26 @@ def test_clear_weather_stays_clear(case):
 
 
 def test_shaking_camera_says_unstable_rather_than_guess():
-    res = _run(SceneParams(shake_px=1.0), 200)
+    """Shaken by about 2 px, beyond the wind that ``robustness.motion_frame_px`` (1.5 px)
+    judges through: unstable, never rain."""
+    res = _run(SceneParams(shake_px=2.0), 200)
     states = [r.state for r, _ in res[WARMUP:]]
     assert states.count(State.UNSTABLE) / len(states) > 0.9
     assert not any(r.rain for r, _ in res)
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_camera_in_the_wind_is_held_still_and_judges(seed):
-    """A camera shaken by about a third of a pixel is translated back onto its reference before
-    the background model sees it: it judges rain and clear weather, where it used to say
-    unstable on every frame (robustness.motion_frame_px was 0.3 px, without stabilisation)."""
-    clear = _run(SceneParams(cars=4, shake_px=0.35), 300, seed=seed)
+@pytest.mark.parametrize(("seed", "shake"), [(1, 0.35), (2, 0.35), (3, 0.6)])
+def test_camera_in_the_wind_is_held_still_and_judges(seed, shake):
+    """A camera shaken by a third to two thirds of a pixel is translated back onto its
+    reference before the background model sees it, and its edges, a pixel off at most, are
+    held out by eq. 8 against the 3x3 neighbourhood: it judges rain and clear weather on every
+    frame (issue 10: with robustness.motion_frame_px at 0.3 px, it said unstable on every
+    frame; at 0.6 px, seed 3 still did)."""
+    clear = _run(SceneParams(cars=4, shake_px=shake), 300, seed=seed)
     states = [r.state for r, _ in clear[WARMUP:]]
-    assert states.count(State.UNSTABLE) / len(states) <= 0.3
+    assert states.count(State.UNSTABLE) / len(states) <= 0.01
     assert not any(r.rain for r, _ in clear)
-    rain = _run(SceneParams(cars=4, shake_px=0.35, rain=StreakParams()), 300, seed=seed)
+    rain = _run(SceneParams(cars=4, shake_px=shake, rain=StreakParams()), 300, seed=seed)
     assert np.mean([r.rain for r, _ in rain[WARMUP + 25 :]]) >= 0.95
 
 
@@ -327,3 +331,33 @@ def test_real_clear_clips_say_no_rain(shared_fixtures, name):
         for i, frame in enumerate(container.decode(video=0)):
             rain += det.process(frame.to_ndarray(format="gray"), i / 25).rain
     assert rain == 0
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_faint_rain_at_a_low_resolution_is_seen_by_pooling_frames(seed):
+    """320x240, 4 cars, 30 faint streaks a frame: about 10 pass the rules, under the 12 blobs a
+    fit needs. Pooled with the frames before (decision.pool_frames = 4), they are rain on
+    72-78 % of the frames (seeds 1-3); one frame at a time, on 0-17 %. Four pedestrians in
+    clear weather make a broad population from frame to frame: no false rain."""
+    from dataclasses import replace
+
+    params = SceneParams(
+        fps=15.0,
+        cars=4,
+        jpeg_quality=70,
+        foliage_sway_px=0.8,
+        sensor_noise=0.5,
+        darkness=0.3,
+        rain=StreakParams(mu_deg=100, count=30, length_px=11.0, brightness=25.0),
+    )
+    one_frame = DetectorParams()
+    one_frame = replace(one_frame, decision=replace(one_frame.decision, pool_frames=1))
+    rates = []
+    for detector in (HosDetector(), HosDetector(one_frame)):
+        scene = Scene(320, 240, seed=seed, params=params)
+        rain = [detector.process(scene.frame(i)[0], i / 15).rain for i in range(240)]
+        rates.append(np.mean(rain[90:]))
+    assert rates[0] >= 0.6 and rates[1] <= 0.25, rates
+    clear = Scene(320, 240, seed=seed, params=replace(params, rain=None, pedestrians=4))
+    detector = HosDetector()
+    assert not any(detector.process(clear.frame(i)[0], i / 15).rain for i in range(240))

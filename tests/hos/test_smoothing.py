@@ -144,3 +144,23 @@ def test_a_noisier_measurement_moves_the_state_less():
     c = ParameterSmoother()
     c.update((0.8, 1.5, 0.2), measurement_var=c.params.measurement_var)
     assert c.state == a.state  # the parameters' own variance by default
+
+
+def test_a_frame_without_blobs_ends_rain_within_ten_frames():
+    """Issue 10's rain -> clear latency: a miss with hardly a blob in sight (the pipeline passes
+    ``empty_measurement_var``) ends a verdict at Pi 0.8 in 8 frames: 3 to fall under the
+    threshold, then the 5-frame dwell; a failed fit of many blobs (the miss variance) takes 15."""
+    p = DecisionParams()
+
+    def frames_to_clear(var: float | None) -> int:
+        s = ParameterSmoother(p)
+        for _ in range(30):
+            s.update((0.8, math.radians(85), math.radians(8)))
+        frames = 0
+        while s.update(None, measurement_var=var).rain:
+            frames += 1
+            assert frames < 100
+        return frames + 1
+
+    empty, failed = frames_to_clear(p.empty_measurement_var), frames_to_clear(None)
+    assert empty <= 8 < 12 <= failed, (empty, failed)
