@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from fractions import Fraction
 
 import cv2
 import numpy as np
@@ -38,6 +39,9 @@ _RANGES = {
         "noise": (0.0, 3.0),
         "darkness": (0.0, 0.5),
         "wind": (0.1, 1.0),
+        # H.264 (libx264, constant quality) instead of the JPEG drawn above: None keeps it
+        "h264_crf": [None, None, 23, 28],
+        "full_hd": 0.0,  # chance of 1920x1080 instead of the size drawn above
         "seed0": 10_000,
     },
     "evaluation": {
@@ -50,6 +54,8 @@ _RANGES = {
         "noise": (1.0, 4.0),
         "darkness": (0.0, 0.6),
         "wind": (0.2, 0.5),
+        "h264_crf": [None, None, 26, 32],
+        "full_hd": 0.15,
         "seed0": 50_000,
     },
 }
@@ -87,6 +93,8 @@ class SceneCase:
     pan_px: tuple[float, float] = (0.0, 0.0)
     #: frames of the transition's rain phase, [start, end)
     rain_frames: tuple[int, int] | None = None
+    #: the frames go through H.264 (libx264, this constant-quality factor) and back; None: not
+    h264_crf: int | None = None
 
 
 def sample_case(
@@ -101,9 +109,18 @@ def sample_case(
     r = _RANGES[split]
     seed = int(r["seed0"]) + index
     rng = np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera)])
+    # The codec and full HD come from a stream of their own, so that adding them left every
+    # other draw of a scene as it was.
+    extra = np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 1])
+    h264_crf = r["h264_crf"][extra.integers(len(r["h264_crf"]))]
+    full_hd = bool(extra.random() < float(r["full_hd"]))
     width, height = r["sizes"][rng.integers(len(r["sizes"]))]
+    if full_hd:
+        width, height = 1920, 1080
     fps = float(r["fps"][rng.integers(len(r["fps"]))])
     jpeg = r["jpeg"][rng.integers(len(r["jpeg"]))]
+    if h264_crf is not None:
+        jpeg = None  # one codec a scene
 
     def uniform(key: str) -> float:
         lo, hi = r[key]
@@ -164,6 +181,7 @@ def sample_case(
         reaim=reaim,
         pan_px=pan,
         rain_frames=rain_frames,
+        h264_crf=None if h264_crf is None else int(h264_crf),
     )
 
 
@@ -196,6 +214,7 @@ class CaseFrame:
 def case_frames(case: SceneCase) -> Iterator[CaseFrame]:
     """The frames of ``case`` with their truth."""
     scene = Scene(case.width, case.height, seed=case.seed, params=case.params)
+    codec = None if case.h264_crf is None else H264RoundTrip(case, case.h264_crf)
     offset = np.zeros(2)
     for i in range(case.frames):
         gray, truth = scene.frame(i)
@@ -205,4 +224,50 @@ def case_frames(case: SceneCase) -> Iterator[CaseFrame]:
         if offset.any():
             m = np.float32([[1, 0, offset[0]], [0, 1, offset[1]]])
             gray = cv2.warpAffine(gray, m, (case.width, case.height), borderMode=cv2.BORDER_REFLECT)
+        if codec is not None:
+            gray = codec(gray)
         yield CaseFrame(gray, bool(truth.precipitation), moving, float(truth.mu))
+
+
+class H264RoundTrip:
+    """Each frame through libx264 and back, one frame in, the same frame out (``zerolatency``:
+    no look-ahead, no B-frames; a key frame every 2 s, as IP cameras send), as a camera's H.264
+    stream would deliver it: block artefacts, smeared small detail, a grain that changes at
+    every key frame."""
+
+    def __init__(self, case: SceneCase, crf: int) -> None:
+        import av  # a dependency of the drivers; imported here so that rendering needs none
+
+        self._av = av
+        enc = av.CodecContext.create("libx264", "w")
+        enc.width, enc.height = case.width - case.width % 2, case.height - case.height % 2
+        enc.pix_fmt = "yuv420p"
+        enc.time_base = Fraction(1, round(case.fps))
+        enc.options = {
+            "preset": "ultrafast",
+            "tune": "zerolatency",
+            "crf": str(crf),
+            "g": str(max(1, round(2 * case.fps))),
+        }
+        self._enc = enc
+        self._dec = av.CodecContext.create("h264", "r")
+        self._pts = 0
+        self._shape = (case.height, case.width)
+
+    def __call__(self, gray: np.ndarray) -> np.ndarray:
+        h, w = self._enc.height, self._enc.width
+        frame = self._av.VideoFrame.from_ndarray(np.ascontiguousarray(gray[:h, :w]), format="gray")
+        frame = frame.reformat(format="yuv420p")
+        frame.pts = self._pts
+        self._pts += 1
+        out = None
+        for packet in self._enc.encode(frame):
+            for decoded in self._dec.decode(packet):
+                out = decoded.to_ndarray(format="gray")
+        if out is None:  # never with zerolatency; kept so that a frame is never lost
+            return gray
+        if out.shape != self._shape:
+            out = cv2.copyMakeBorder(
+                out, 0, self._shape[0] - h, 0, self._shape[1] - w, cv2.BORDER_REPLICATE
+            )
+        return out

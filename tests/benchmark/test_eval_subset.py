@@ -96,3 +96,18 @@ def test_small_scenes_through_the_detector() -> None:
     assert c.judged_clear > 50 and c.false_frames <= 0.2 * c.judged_clear
     assert r.wet > 50 and r.detected >= 0.5 * r.wet
     assert r.mu_errors and np.median(r.mu_errors) < 10
+
+
+def test_h264_scenes_come_back_compressed_frame_for_frame() -> None:
+    tuning = sample_cases("tuning", per_cell=3, frames=10)
+    evaluation = sample_cases("evaluation", per_cell=3, frames=10)
+    assert {c.h264_crf for c in tuning} >= {None, 23, 28}
+    assert {c.h264_crf for c in evaluation} >= {None, 26, 32}
+    assert all(c.params.jpeg_quality is None for c in tuning + evaluation if c.h264_crf)
+    assert any(c.width == 1920 for c in evaluation) and all(c.width < 1920 for c in tuning)
+    case = replace(next(c for c in tuning if c.h264_crf), width=161, height=121, frames=12)
+    plain = list(case_frames(replace(case, h264_crf=None)))
+    coded = list(case_frames(case))
+    assert len(coded) == 12 and all(f.gray.shape == (121, 161) for f in coded)
+    diff = [np.abs(a.gray.astype(int) - b.gray).mean() for a, b in zip(plain, coded, strict=True)]
+    assert all(0.05 < d < 8.0 for d in diff), diff  # compressed, and still the same frame
