@@ -56,7 +56,7 @@ class SegmentationParams:
     #: Beyond the paper: whatever the resolution, a blob of fewer pixels has no orientation to
     #: vote with (one pixel's second moments are isotropic; two give 0, 45 or 90 degrees).
     #: 0 keeps the scaled ``min_area`` alone.
-    min_area_px: int = 3
+    min_area_px: int = 2
     #: Learning rate of the running background image used by the photometric rule.
     background_rate: float = 0.02
 

@@ -335,10 +335,10 @@ def test_real_clear_clips_say_no_rain(shared_fixtures, name):
 
 @pytest.mark.parametrize("seed", [1, 2])
 def test_faint_rain_at_a_low_resolution_is_seen_by_pooling_frames(seed):
-    """320x240, 4 cars, 30 faint streaks a frame: about 10 pass the rules, under the 12 blobs a
-    fit needs. Pooled with the frames before (decision.pool_frames = 4), they are rain on
-    72-78 % of the frames (seeds 1-3); one frame at a time, on 0-17 %. Four pedestrians in
-    clear weather make a broad population from frame to frame: no false rain."""
+    """320x240, 4 cars, 20 faint streaks a frame: fewer pass the rules than the 12 blobs a fit
+    needs. Pooled with the frames before (decision.pool_frames = 4), they are rain on 26-46 % of
+    the frames (seeds 1-3); one frame at a time, on 0-13 %. Four pedestrians in clear weather
+    make a broad population from frame to frame: no false rain."""
     from dataclasses import replace
 
     params = SceneParams(
@@ -348,7 +348,7 @@ def test_faint_rain_at_a_low_resolution_is_seen_by_pooling_frames(seed):
         foliage_sway_px=0.8,
         sensor_noise=0.5,
         darkness=0.3,
-        rain=StreakParams(mu_deg=100, count=30, length_px=11.0, brightness=25.0),
+        rain=StreakParams(mu_deg=100, count=20, length_px=11.0, brightness=25.0),
     )
     one_frame = DetectorParams()
     one_frame = replace(one_frame, decision=replace(one_frame.decision, pool_frames=1))
@@ -357,7 +357,7 @@ def test_faint_rain_at_a_low_resolution_is_seen_by_pooling_frames(seed):
         scene = Scene(320, 240, seed=seed, params=params)
         rain = [detector.process(scene.frame(i)[0], i / 15).rain for i in range(240)]
         rates.append(np.mean(rain[90:]))
-    assert rates[0] >= 0.6 and rates[1] <= 0.25, rates
+    assert rates[0] >= 0.35 and rates[0] >= rates[1] + 0.25, rates
     clear = Scene(320, 240, seed=seed, params=replace(params, rain=None, pedestrians=4))
     detector = HosDetector()
     assert not any(detector.process(clear.frame(i)[0], i / 15).rain for i in range(240))
