@@ -146,7 +146,7 @@ class HosDetector:
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, blobs, sum of weights, sum of squared weights), newest first
         self._pool: deque[tuple[np.ndarray, int, float, float]] = deque(
-            maxlen=max(self.params.decision.pool_frames, 1)
+            maxlen=self.params.decision.pool_frames
         )
         self._last_fit: tuple[float, float, float] | None = None
         # beyond the paper: rain or snow (hos/ptype.py)
@@ -315,12 +315,12 @@ class HosDetector:
         pan_px = self._pan(seg.small, seg.scale, still=still)
         far = motion_px > rob.motion_far_px or pan_px > rob.motion_far_px
         moved = moved or far
-        if state == State.OK and (far or self._moving > rob.motion_unstable_fraction):
+        # Too far off its place to be judged (not the wind), or moved on many recent frames;
+        # a scene that changed because the camera moves is unstable too.
+        if state in (State.OK, State.SCENE_CHANGE) and (
+            moved or self._moving > rob.motion_unstable_fraction
+        ):
             state = State.UNSTABLE
-        elif state == State.SCENE_CHANGE and (moved or self._moving > rob.motion_unstable_fraction):
-            state = State.UNSTABLE  # the scene changed because the camera moves
-        if state == State.OK and moved:
-            state = State.UNSTABLE  # too far off its place to be judged: not the wind
         hold = state in (State.WARMING_UP, State.SCENE_CHANGE) or moved
 
         # 2b. candidate pixels
@@ -383,30 +383,10 @@ class HosDetector:
         )
         S = float(hist.sum())
         weights = mom.a[idx]
-        # Beyond the paper: a frame with fewer than min_blobs blobs is fitted together with the
-        # frames before it, up to decision.pool_frames of them (faint rain at a low resolution
-        # leaves 5-10 streaks a frame; their orientations agree from frame to frame, those of
-        # noise do not).
         dp = p.decision
-        if hold:
-            self._pool.clear()
-        else:
-            w1, w2 = float(weights.sum()), float(np.sum(weights * weights))
-            self._pool.appendleft((hist, int(idx.size), w1, w2))
-        fitted, n_pooled, pooled = hist, int(idx.size), 1
-        if 0 < idx.size < dp.min_blobs and len(self._pool) > 1:
-            fitted = hist.copy()
-            sw1, sw2 = self._pool[0][2], self._pool[0][3]
-            for other, n_other, o1, o2 in itertools.islice(self._pool, 1, None):
-                if n_pooled >= dp.min_blobs:
-                    break
-                fitted += other
-                n_pooled, sw1, sw2, pooled = n_pooled + n_other, sw1 + o1, sw2 + o2, pooled + 1
-            n_eff = sw1 * sw1 / sw2 if sw2 > 0 else 0.0
-        elif idx.size:
-            n_eff = float(weights.sum()) ** 2 / float(np.sum(weights * weights))
-        else:
-            n_eff = 0.0
+        fitted, n_pooled, pooled, n_eff = self._pooled_hos(
+            hist, int(idx.size), float(weights.sum()), float(np.sum(weights * weights)), hold
+        )
         if idx.size:
             mp = p.mixture
             fit = (fit_mixture_jit if self.compiled else fit_mixture)(
@@ -559,6 +539,31 @@ class HosDetector:
         sx = sum(d[0] for d in self._steps)
         sy = sum(d[1] for d in self._steps)
         return math.hypot(sx, sy) * scale
+
+    def _pooled_hos(
+        self, hist: np.ndarray, n: int, w1: float, w2: float, hold: bool
+    ) -> tuple[np.ndarray, int, int, float]:
+        """The HOS to fit: ``(histogram, blobs, frames pooled, n_eff)`` (beyond the paper).
+
+        A frame with fewer than ``decision.min_blobs`` blobs is fitted together with the frames
+        before it, up to ``decision.pool_frames`` of them (faint rain at a low resolution leaves
+        5-10 streaks a frame; their orientations agree from frame to frame, those of noise do
+        not). ``w1``, ``w2``: sums of the blobs' weights and squared weights, for n_eff, the
+        effective number of blobs (sum w)^2 / sum w^2. A held frame empties the pool.
+        """
+        if hold:
+            self._pool.clear()
+        else:
+            self._pool.appendleft((hist, n, w1, w2))
+        pooled = 1
+        if 0 < n < self.params.decision.min_blobs and len(self._pool) > 1:
+            hist = hist.copy()
+            for other, n_other, o1, o2 in itertools.islice(self._pool, 1, None):
+                if n >= self.params.decision.min_blobs:
+                    break
+                hist += other
+                n, w1, w2, pooled = n + n_other, w1 + o1, w2 + o2, pooled + 1
+        return hist, n, pooled, (w1 * w1 / w2 if w2 > 0 else 0.0)
 
     def _remember_foreground(self, foreground: np.ndarray, changed: float) -> None:
         """Where the background model saw motion, on the reduced grid, grown by a reduced pixel:

@@ -112,13 +112,14 @@ class ParameterSmoother:
         from few blobs is a noisier measurement), or the miss variance for a miss (a frame with
         hardly any blob is surer evidence of no rain than a fit that failed)."""
         p = self.params
-        r = p.measurement_var if measurement_var is None else measurement_var
+        r = measurement_var
+        if r is None:
+            r = p.measurement_var if measurement is not None else p.miss_measurement_var
         x, var = self._x, self._p
         for i in range(3):
             x[i], var[i] = kalman_predict(x[i], var[i], p.process_var)
         if measurement is None:  # Pi alone, measured 0 with the miss variance
-            miss = p.miss_measurement_var if measurement_var is None else measurement_var
-            x[0], var[0] = kalman_update(x[0], var[0], 0.0, miss)
+            x[0], var[0] = kalman_update(x[0], var[0], 0.0, r)
         else:
             pi, mu, sigma = measurement
             mu_near = x[1] + _wrap(mu - x[1])
