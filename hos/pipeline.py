@@ -477,7 +477,7 @@ class HosDetector:
             R=R,
             n_blobs=int(idx.size),
             n_rain_blobs=int(np.count_nonzero(is_rain)),
-            histogram=fitted,
+            histogram=hist,
             precipitation_type=precipitation_type,
             streak_shape=shape_,
             motion_px=motion_px,

@@ -70,7 +70,9 @@ class FrameResult:
     R: float
     n_blobs: int
     n_rain_blobs: int
-    #: (bins,) float64, the HOS of eq. 20 before normalisation (its sum is S).
+    #: (bins,) float64, the HOS of eq. 20 before normalisation (its sum is S), of this frame
+    #: alone; a frame with few blobs is fitted on it summed with the frames before it
+    #: (``decision.pool_frames``), so ``fit`` may describe more than this histogram.
     histogram: np.ndarray = field(repr=False)
     #: Beyond the paper: "rain", "snow" or "unknown" (hos/ptype.py), voted over recent frames;
     #: "unknown" whenever ``rain`` is false.

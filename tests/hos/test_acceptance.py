@@ -361,3 +361,22 @@ def test_faint_rain_at_a_low_resolution_is_seen_by_pooling_frames(seed):
     clear = Scene(320, 240, seed=seed, params=replace(params, rain=None, pedestrians=4))
     detector = HosDetector()
     assert not any(detector.process(clear.frame(i)[0], i / 15).rain for i in range(240))
+
+
+def test_a_pooled_frame_still_reports_its_own_histogram():
+    """``histogram`` is the frame's own HOS (its sum is S), recorded as ``/hos/<cam>/histogram``
+    and averaged offline: pooling changes what is fitted, not what is reported."""
+    scene = Scene(
+        320,
+        240,
+        seed=1,
+        params=SceneParams(fps=15.0, cars=4, rain=StreakParams(mu_deg=100, count=20)),
+    )
+    detector = HosDetector()
+    few = 0
+    for i in range(160):
+        r = detector.process(scene.frame(i)[0], i / 15)
+        if 0 < r.n_blobs < detector.params.decision.min_blobs and r.state == State.OK:
+            few += 1
+            assert r.histogram.sum() == pytest.approx(r.S)
+    assert few >= 10
