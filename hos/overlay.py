@@ -21,11 +21,12 @@ from .result import BlobClass, FrameResult
 __all__ = ["CLASS_COLOURS", "draw_overlay", "mixture_curves"]
 
 #: (5, 3) uint8 BGR colour of each :class:`~hos.result.BlobClass`, indexed by class.
-CLASS_COLOURS = np.zeros((5, 3), dtype=np.uint8)
+CLASS_COLOURS = np.zeros((6, 3), dtype=np.uint8)
 CLASS_COLOURS[BlobClass.RAIN] = (0, 220, 0)  # green
 CLASS_COLOURS[BlobClass.NOISE] = (0, 0, 235)  # red
 CLASS_COLOURS[BlobClass.SIZE] = (255, 140, 0)  # blue
 CLASS_COLOURS[BlobClass.STRUCTURE] = (150, 40, 110)  # darker blue-purple
+CLASS_COLOURS[BlobClass.TRAFFIC] = (0, 140, 255)  # orange
 CLASS_COLOURS.flags.writeable = False
 
 _WHITE = (255, 255, 255)

@@ -238,6 +238,22 @@ class RobustnessParams:
     #: size rule rejects; R is corrected by the candidate area those merged blobs carry.
     merge_correction: bool = True
     merge_max_factor: float = 20.0
+    #: Beyond the paper: blobs where foreground bodies (vehicles, pedestrians, spray) are now,
+    #: or pass often, are left out of the HOS (``hos/traffic.py``). The foreground is eroded
+    #: by a square of ``traffic_width`` pixels (streaks vanish) and cut into cells of
+    #: ``traffic_cell`` pixels (both at ``size_reference_height`` rows); a cell more than
+    #: ``traffic_density`` full is dense. Cells dense (or next to one) more often than
+    #: ``max(traffic_rate, traffic_ratio * median cell)`` over ``traffic_frames`` frames are
+    #: traffic, and with ``traffic_now`` so are the frame's own bodies (2 x 2 dense cells).
+    #: ``traffic = false``: the paper's HOS of every blob.
+    traffic: bool = True
+    traffic_cell: int = 8
+    traffic_width: int = 3
+    traffic_density: float = 0.5
+    traffic_frames: int = 1500
+    traffic_rate: float = 0.02
+    traffic_ratio: float = 3.0
+    traffic_now: bool = True
 
     def __post_init__(self) -> None:
         _check(self.warmup_frames >= 0, "warmup_frames", "must be >= 0")
@@ -255,6 +271,11 @@ class RobustnessParams:
         _check(0 <= self.dark_level < 255, "dark_level", "must be in [0, 255)")
         _check(0 < self.scene_change_fraction <= 1, "scene_change_fraction", "in (0, 1]")
         _check(self.merge_max_factor >= 1, "merge_max_factor", "must be >= 1")
+        _check(self.traffic_cell >= 1, "traffic_cell", "must be >= 1")
+        _check(self.traffic_width >= 1, "traffic_width", "must be >= 1")
+        _check(0 < self.traffic_density < 1, "traffic_density", "must be in (0, 1)")
+        _check(self.traffic_frames >= 1, "traffic_frames", "must be >= 1")
+        _check(0 <= self.traffic_rate < 1, "traffic_rate", "must be in [0, 1)")
 
 
 @dataclass(frozen=True)

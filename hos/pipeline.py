@@ -48,6 +48,7 @@ from .params import DetectorParams
 from .ptype import PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
+from .traffic import TrafficMap
 
 if _jit.ENABLED:
     from ._jit_mixture import fit_mixture_jit
@@ -288,6 +289,17 @@ class HosDetector:
             self._photometric = PhotometricRule(p.segmentation, compiled=self.compiled)
             self._moving = 0.0
             self._shaken = 0
+            at = h / p.segmentation.size_reference_height
+            self._traffic = TrafficMap(
+                shape,
+                cell=max(round(rob.traffic_cell * at), 1),
+                width=max(round(rob.traffic_width * at), 1),
+                density=rob.traffic_density,
+                frames=rob.traffic_frames,
+                rate=rob.traffic_rate,
+                ratio=rob.traffic_ratio,
+                now=rob.traffic_now,
+            )
         self._rate_frames += 1
 
         # 1b. camera motion (beyond the paper): offsets up to motion_frame_px were undone by
@@ -356,15 +368,24 @@ class HosDetector:
             floor=rob.persistence_floor,
             ratio=rob.persistence_ratio,
         )
-        if self._rate_frames > rob.warmup_frames // 2 and (
+        learn = self._rate_frames > rob.warmup_frames // 2 and (
             candidate_fraction <= rob.scene_change_fraction
-        ):
+        )
+        if learn:
             # Not while the background model is still learning, nor on a frame that changed
             # as a whole: that foreground says nothing about what recurs in place.
             self._rate.update(candidates, candidate_fraction)
         sized = size_rule(mom.area, min_area=min_area, max_area=max_area)
         sized[0] = False
-        accepted = sized & ~structural
+        if rob.traffic:
+            # beyond the paper: where vehicles, pedestrians and spray are or often pass
+            self._traffic.update(seg.foreground, learn=learn and state == State.OK)
+            in_traffic = self._traffic.lookup(mom.x0, mom.y0)
+            in_traffic[0] = False
+        else:
+            in_traffic = np.zeros(blobs.n_labels, dtype=bool)
+        traffic = in_traffic & sized & ~structural
+        accepted = sized & ~structural & ~traffic
         idx = np.flatnonzero(accepted)
 
         # 4-5. orientation, HOS, mixture
@@ -428,6 +449,7 @@ class HosDetector:
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
         blob_class[0] = BlobClass.NONE
         blob_class[sized & structural] = BlobClass.STRUCTURE  # streak-sized, but recurs in place
+        blob_class[traffic] = BlobClass.TRAFFIC
         if smoothed.rain:
             model = (smoothed.pi, smoothed.mu, smoothed.sigma)
         elif fit.ok and fit.gof_ok:
@@ -461,7 +483,7 @@ class HosDetector:
         precipitation_type = self._ptype.update(vote, precipitating=rain)
 
         # 8. intensity
-        merge = self._merge_correction(mom.area, accepted, structural, max_area)
+        merge = self._merge_correction(mom.area, accepted, structural | in_traffic, max_area)
         R = S * smoothed.pi * merge
 
         return FrameResult(
@@ -575,13 +597,14 @@ class HosDetector:
         self._fg_small = cv2.dilate(small.view(np.uint8), _CROSS)
 
     def _merge_correction(
-        self, area: np.ndarray, accepted: np.ndarray, structural: np.ndarray, max_area: float
+        self, area: np.ndarray, accepted: np.ndarray, excluded: np.ndarray, max_area: float
     ) -> float:
         """Factor >= 1 restoring the streaks lost to the size rule by overlap (beyond eq. 31).
 
         In heavy rain streaks cross and merge into blobs larger than ``max_area``: the HOS loses
         them and S, hence R, would fall as rain gets heavier. The candidate area in merged blobs
-        (larger than ``max_area`` but far smaller than a car) is added back in proportion.
+        (larger than ``max_area`` but far smaller than a car) is added back in proportion,
+        except blobs that are ``excluded`` (structure, or where the traffic goes).
         """
         rob = self.params.robustness
         if not rob.merge_correction:
@@ -589,7 +612,7 @@ class HosDetector:
         accepted_area = float(area[accepted].sum())
         if accepted_area <= 0.0:
             return 1.0
-        merged = (area > max_area) & (area <= max_area * rob.merge_max_factor) & ~structural
+        merged = (area > max_area) & (area <= max_area * rob.merge_max_factor) & ~excluded
         return 1.0 + float(area[merged].sum()) / accepted_area
 
 

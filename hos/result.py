@@ -29,6 +29,7 @@ class BlobClass:
     NOISE = 2  # a streak-sized blob whose orientation is not the rain's: red
     SIZE = 3  # rejected by the size rule: blue
     STRUCTURE = 4  # rejected because it recurs in place (edges, foliage): blue too
+    TRAFFIC = 5  # streak-sized, but where vehicles, pedestrians or spray are or pass: orange
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,126 @@
+"""Where the traffic goes: a map learnt from the background model's foreground (beyond the paper).
+
+The paper's mixture (eq. 23) explains the HOS as rain (a Gaussian) and noise spread evenly over
+the orientations (the uniform part). Over a road, the foreground is mostly vehicles: their
+bright fragments (lights, windscreens, reflections on the wet road) and their spray pass the
+photometric and size rules, and they are so many that the rain's share Pi of the HOS stays under
+any threshold, however clear the streaks are against the trees beside the road (``docs/method.md``,
+"Real clips").
+
+Rain and vehicles differ in how they fill the foreground. A streak is one or two pixels wide: a
+cell of ``cell`` x ``cell`` pixels (8 at 480 rows) is at most a quarter foreground where a streak
+crosses it, and little more where two cross. A vehicle, a pedestrian or a plume of spray is a
+body that fills whole cells. Cells filled beyond ``density`` are a *body*; their running rate
+over ``frames`` frames says where bodies pass: the lanes, the pavement. A blob whose centroid is
+in a body cell now (grown by one cell: fragments sit at a body's rim) or in a cell where bodies
+pass more often than ``rate`` is left out of the HOS. Rain over the lanes is lost with them; it
+is the same rain that falls over the rest of the view.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+__all__ = ["TrafficMap"]
+
+_SQUARE = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
+_BLOCK = np.ones((2, 2), np.uint8)
+
+
+class TrafficMap:
+    """Per-cell rate of foreground bodies, and the cells whose blobs are traffic.
+
+    Parameters
+    ----------
+    shape : (H, W) of the frames
+    cell : cell side in pixels at this resolution (>= 1)
+    width : the foreground is eroded by a square of this side first (1: not at all), so that
+        streaks up to ``width - 1`` pixels wide leave nothing
+    density : a cell whose eroded foreground fraction exceeds this is dense
+    frames : time constant of the running rate of dense cells, in frames (it starts from 0)
+    rate, ratio : cells dense more often than ``max(rate, ratio * median rate)`` are traffic
+        (the median: rain, however dense, is dense everywhere alike); ``rate = 0``: no map
+    now : also the bodies of the current frame (dense cells in a block of 2 x 2 at least:
+        a lone dense cell can be streaks crossing), grown by one cell
+    """
+
+    def __init__(
+        self,
+        shape: tuple[int, int],
+        *,
+        cell: int,
+        width: int,
+        density: float,
+        frames: int,
+        rate: float,
+        ratio: float = 0.0,
+        now: bool = True,
+    ) -> None:
+        h, w = shape
+        self.cell = max(int(cell), 1)
+        side = max(int(width), 1)
+        self.kernel = None if side <= 1 else np.ones((side, side), np.uint8)
+        self.grid = (max(math.ceil(h / self.cell), 1), max(math.ceil(w / self.cell), 1))
+        self.density = float(density)
+        self.k = 1.0 / max(int(frames), 1)
+        self.threshold = float(rate)
+        self.ratio = float(ratio)
+        self.now = bool(now)
+        self.rate = np.zeros(self.grid, dtype=np.float32)
+        self.mask = np.zeros(self.grid, dtype=bool)
+
+    def dense(self, foreground: np.ndarray) -> np.ndarray:
+        """(gh, gw) uint8, 1 where a cell of ``foreground`` (uint8, nonzero = foreground) is
+        dense once eroded."""
+        gh, gw = self.grid
+        h, w = foreground.shape
+        ph, pw = gh * self.cell - h, gw * self.cell - w
+        fg = foreground if self.kernel is None else cv2.erode(foreground, self.kernel)
+        if ph or pw:  # pad to whole cells (the padding is background)
+            fg = cv2.copyMakeBorder(fg, 0, ph, 0, pw, cv2.BORDER_CONSTANT, value=0)
+        frac = cv2.resize(fg, (gw, gh), interpolation=cv2.INTER_AREA)
+        level = np.float32(self.density * float(max(int(foreground.max(initial=0)), 1)))
+        return (frac > level).view(np.uint8)
+
+    @staticmethod
+    def bodies(dense: np.ndarray) -> np.ndarray:
+        """(gh, gw) bool: dense cells that belong to a block of 2 x 2 dense cells (an opening,
+        marked at each block's corner and spread back over it), grown by one cell."""
+        corner = cv2.erode(dense, _BLOCK, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT)
+        core = cv2.dilate(corner, _BLOCK, anchor=(1, 1), borderType=cv2.BORDER_CONSTANT)
+        return cv2.dilate(core, _SQUARE).view(bool)
+
+    def update(self, foreground: np.ndarray, *, learn: bool) -> np.ndarray:
+        """Take one frame's foreground; ``learn``: also update the running rate. Returns the
+        (gh, gw) bool traffic mask of this frame."""
+        dense = self.dense(foreground)
+        if learn:
+            # grown by one cell: fragments and spray sit at a body's rim. From zero: a cell
+            # needs about ``rate * frames`` dense frames to become traffic.
+            grown = cv2.dilate(dense, _SQUARE).astype(np.float32)
+            cv2.accumulateWeighted(grown, self.rate, self.k)
+        mask = self.bodies(dense) if self.now else np.zeros(self.grid, dtype=bool)
+        if self.threshold > 0:
+            level = self.threshold
+            if self.ratio > 0:
+                level = max(level, self.ratio * float(np.median(self.rate)))
+            mask |= self.rate > level
+        self.mask = mask
+        return self.mask
+
+    def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(N,) bool: whether each point (pixels) lies in a traffic cell of the last frame."""
+        # NaN (a label without pixels) goes to cell 0; such a blob is in no rule's way
+        gy = np.nan_to_num(np.asarray(y, dtype=np.float64) / self.cell).astype(np.intp)
+        gx = np.nan_to_num(np.asarray(x, dtype=np.float64) / self.cell).astype(np.intp)
+        gy = np.clip(gy, 0, self.grid[0] - 1)
+        gx = np.clip(gx, 0, self.grid[1] - 1)
+        return self.mask[gy, gx]
+
+    @property
+    def fraction(self) -> float:
+        """Fraction of the cells that are traffic."""
+        return float(np.count_nonzero(self.mask)) / self.mask.size

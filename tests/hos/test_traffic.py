@@ -1,0 +1,107 @@
+"""Where the traffic goes (beyond the paper, ``hos/traffic.py``): foreground bodies and the cells
+they pass through leave the HOS; rain, however dense, does not."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from drivers.simulator import Scene, SceneParams, StreakParams
+from hos import HosDetector
+from hos.result import BlobClass
+from hos.traffic import TrafficMap
+
+
+def _map(shape=(240, 320), **kw) -> TrafficMap:
+    args = {"cell": 8, "width": 3, "density": 0.5, "frames": 500, "rate": 0.02, "ratio": 3.0}
+    args.update(kw)
+    return TrafficMap(shape, **args)
+
+
+def _streaks(rng: np.random.Generator, shape, n: int, width: int = 1) -> np.ndarray:
+    fg = np.zeros(shape, np.uint8)
+    h, w = shape
+    for _ in range(n):
+        x, y = int(rng.integers(0, w)), int(rng.integers(0, h))
+        cv2.line(fg, (x, y), (x + int(rng.integers(-3, 4)), y + 15), 255, width)
+    return fg
+
+
+def test_a_body_and_its_rim_are_traffic_thin_streaks_are_not() -> None:
+    tm = _map()
+    fg = np.zeros((240, 320), np.uint8)
+    fg[96:136, 40:120] = 255  # a car: cells 12-16 down, 5-14 across
+    mask = tm.update(fg, learn=False)
+    assert mask[12:17, 5:15].all()
+    assert mask[11, 7] and mask[17, 7] and mask[14, 4] and mask[14, 15]  # grown by one cell
+    assert mask.sum() == 7 * 12
+
+    # 2-pixel-wide streaks covering a sixth of the image (heavier than any rain) are no body
+    dense = _streaks(np.random.default_rng(1), (240, 320), 500, width=2)
+    assert (dense > 0).mean() > 0.16
+    assert not tm.update(dense, learn=False).any()
+
+
+def test_a_lane_stays_traffic_after_the_car_is_gone_and_the_rest_does_not() -> None:
+    tm = _map()
+    for i in range(300):
+        fg = np.zeros((240, 320), np.uint8)
+        x = (i * 6) % 400 - 80
+        if 0 <= i % 100 < 60:  # a car 60 % of the time, driving along rows 100-140
+            fg[100:140, max(x, 0) : max(x + 80, 0)] = 255
+        tm.update(fg, learn=True)
+    mask = tm.update(np.zeros((240, 320), np.uint8), learn=True)
+    assert mask[104 // 8 : 136 // 8, 8:32].all()  # the lane
+    assert not mask[: 80 // 8].any() and not mask[160 // 8 :].any()  # above and below it
+    got = tm.lookup(np.array([50.0, 50.0, np.nan]), np.array([120.0, 20.0, np.nan]))
+    assert got.tolist() == [True, False, False]
+
+
+def test_rain_everywhere_marks_no_cell_as_traffic_even_with_fat_drops() -> None:
+    tm = _map()
+    rng = np.random.default_rng(3)
+    worst = 0.0
+    for _ in range(200):
+        # drops up to 5 px across, close to the lens: some survive the erosion, everywhere alike
+        fg = _streaks(rng, (240, 320), 250, width=2)
+        for _ in range(40):
+            x, y = int(rng.integers(0, 320)), int(rng.integers(0, 240))
+            cv2.circle(fg, (x, y), int(rng.integers(1, 3)), 255, -1)
+        worst = max(worst, float(tm.update(fg, learn=True).mean()))
+    assert (fg > 0).mean() > 0.1
+    assert worst < 0.01  # no body now ...
+    assert tm.update(np.zeros((240, 320), np.uint8), learn=True).mean() < 0.01  # ... no lane
+
+
+def _classes(scene: Scene, frames: range) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per frame in ``frames``: every blob's class and the row of its centroid."""
+    det = HosDetector()
+    out = []
+    for i, (frame, _) in enumerate(scene.frames(0, frames.stop)):
+        r = det.process(frame, i / scene.params.fps)
+        if i in frames:
+            rows = r.pixel_index // r.image_shape[1]
+            size = len(r.blob_class)
+            total = np.bincount(r.pixel_labels, weights=rows, minlength=size)
+            n = np.bincount(r.pixel_labels, minlength=size)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                out.append((r.blob_class, total / n))
+    return out
+
+
+def test_rain_streaks_are_never_traffic_and_car_fragments_are_on_the_road() -> None:
+    rain = StreakParams(count=900, length_px=14, brightness=45)
+    rainy = Scene(640, 360, seed=21, params=SceneParams(rain=rain))
+    classes = np.concatenate([c[1:] for c, _ in _classes(rainy, range(80, 140))])
+    voting = np.isin(classes, (BlobClass.RAIN, BlobClass.NOISE, BlobClass.TRAFFIC))
+    assert voting.sum() > 10_000
+    assert (classes == BlobClass.TRAFFIC).sum() / voting.sum() < 0.005
+
+    traffic = Scene(640, 360, seed=22, params=SceneParams(cars=6, pedestrians=4))
+    ys = []
+    for c, y in _classes(traffic, range(100, 300)):
+        ys.append(y[c == BlobClass.TRAFFIC] / 360)
+    ys = np.concatenate(ys)
+    assert ys.size > 20
+    # the lanes, the pavement and the people on it: the lower half of the street
+    assert np.mean(ys > 0.45) > 0.95
