@@ -218,6 +218,11 @@ class RobustnessParams:
     #: A frame offset by more than this is a camera being moved (knocked, re-aimed), not the
     #: wind: ``unstable`` at once.
     motion_far_px: float = 3.0
+    #: A camera further than ``motion_frame_px`` off its place, and still there (its offset
+    #: changing by less than ``stabilise_min_px`` a frame) for this many frames, was knocked
+    #: or re-aimed: its new view is learnt at once (as after a scene change). 0: never (the
+    #: reference drifts over to the new view in about ``reference_frames`` frames).
+    rest_frames: int = 10
     #: A camera seen off its place by at least this much in the last ``motion_window_frames``
     #: frames is compared, pixel by pixel, with the brightest background of each 3x3
     #: neighbourhood (``hos.background.neighbourhood_background``): its edges, up to a pixel
@@ -265,6 +270,7 @@ class RobustnessParams:
         _check(self.stabilise_min_px >= 0, "stabilise_min_px", "must be >= 0")
         _check(self.motion_far_px > 0, "motion_far_px", "must be > 0")
         _check(self.shaken_px >= 0, "shaken_px", "must be >= 0")
+        _check(self.rest_frames >= 0, "rest_frames", "must be >= 0")
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")

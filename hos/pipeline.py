@@ -174,6 +174,8 @@ class HosDetector:
         self._gain = 1.0
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
+        self._last_shift: tuple[float, float] | None = None  # the last frame's offset
+        self._resting = 0  # frames the camera has stood still off its place
 
     def _setup(self, shape: tuple[int, int]) -> None:
         self._shape = shape
@@ -211,6 +213,14 @@ class HosDetector:
         # 1b. camera motion (beyond the paper): a camera shaken by the wind is held still by
         # translating each frame back onto the reference before the background model sees it
         motion_px, (shift_x, shift_y) = self._camera_offset(corrected_small)
+        if self._at_rest_elsewhere(motion_px, shift_x, shift_y):
+            # knocked or re-aimed, and now at rest: the new view is learnt at once, instead of
+            # staying unstable while the reference drifts over (reference_frames frames)
+            # (a background model already relearning since the blow is learning this view)
+            self._ref_small = corrected_small.copy()
+            if self._relearn == 0:
+                self._relearn = rob.warmup_frames
+            motion_px, shift_x, shift_y = 0.0, 0.0, 0.0
         if rob.stabilise and rob.stabilise_min_px < motion_px <= rob.motion_frame_px:
             frame = _translate(frame, -shift_x, -shift_y)
 
@@ -289,17 +299,16 @@ class HosDetector:
             self._photometric = PhotometricRule(p.segmentation, compiled=self.compiled)
             self._moving = 0.0
             self._shaken = 0
-            at = h / p.segmentation.size_reference_height
-            self._traffic = TrafficMap(
-                shape,
-                cell=max(round(rob.traffic_cell * at), 1),
-                width=max(round(rob.traffic_width * at), 1),
-                density=rob.traffic_density,
-                frames=rob.traffic_frames,
-                rate=rob.traffic_rate,
-                ratio=rob.traffic_ratio,
-                now=rob.traffic_now,
-            )
+            self._traffic = self._traffic_map(shape)
+            self._relearning = False
+        relearning = seg.state == State.SCENE_CHANGE
+        if relearning and not self._relearning:
+            # The view changed as a whole (a knock, lights): what recurred in place and where
+            # the traffic went are the old view's; both are learnt again, as after the warm-up.
+            self._rate = CandidateRate(shape, rob.persistence_frames)
+            self._rate_frames = 0
+            self._traffic = self._traffic_map(shape)
+        self._relearning = relearning
         self._rate_frames += 1
 
         # 1b. camera motion (beyond the paper): offsets up to motion_frame_px were undone by
@@ -513,6 +522,40 @@ class HosDetector:
             pixel_labels=blobs.pixel_labels,
             image_shape=shape,
         )
+
+    def _traffic_map(self, shape: tuple[int, int]) -> TrafficMap:
+        """A new, empty map of where the traffic goes, its cells sized for ``shape``."""
+        rob = self.params.robustness
+        at = shape[0] / self.params.segmentation.size_reference_height
+        return TrafficMap(
+            shape,
+            cell=max(round(rob.traffic_cell * at), 1),
+            width=max(round(rob.traffic_width * at), 1),
+            density=rob.traffic_density,
+            frames=rob.traffic_frames,
+            rate=rob.traffic_rate,
+            ratio=rob.traffic_ratio,
+            now=rob.traffic_now,
+        )
+
+    def _at_rest_elsewhere(self, motion_px: float, dx: float, dy: float) -> bool:
+        """Whether the camera has stood still for ``robustness.rest_frames`` frames further
+        than ``motion_frame_px`` from where the background was learnt (its offset changing by
+        less than ``stabilise_min_px``, or a tenth of the offset, a frame: the linearised fit
+        is that much less sure far off): knocked or re-aimed, not swaying."""
+        rob = self.params.robustness
+        last, self._last_shift = self._last_shift, (dx, dy)
+        if rob.rest_frames <= 0 or motion_px <= rob.motion_frame_px or last is None:
+            self._resting = 0
+            return False
+        if math.hypot(dx - last[0], dy - last[1]) >= max(rob.stabilise_min_px, 0.1 * motion_px):
+            self._resting = 0
+            return False
+        self._resting += 1
+        if self._resting < rob.rest_frames:
+            return False
+        self._resting = 0
+        return True
 
     def _camera_offset(self, small: np.ndarray) -> tuple[float, tuple[float, float]]:
         """The camera's offset from where the background model learnt the scene: its length

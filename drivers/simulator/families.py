@@ -10,6 +10,7 @@ comes from its seed (buildings, trees, poles and signs differ from seed to seed)
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from fractions import Fraction
@@ -24,8 +25,11 @@ __all__ = ["CONDITIONS", "SPLITS", "SceneCase", "case_frames", "sample_case", "s
 
 #: Weather conditions: clear, rain from drizzle-like to heavy, snow, and clear -> rain -> clear.
 CONDITIONS = ("clear", "drizzle", "light", "moderate", "heavy", "snow", "transition")
-#: The camera: fixed, shaken by the wind (sub-pixel), or re-aimed once (panned for 2 s).
-CAMERAS = ("static", "wind", "reaim")
+#: The camera: fixed, shaken by the wind (sub-pixel), re-aimed once (panned for 2 s), or
+#: knocked once (turned and rolled in a few frames, then fixed at its new aim).
+CAMERAS = ("static", "wind", "reaim", "knock")
+#: Frames a knock takes.
+KNOCK_FRAMES = 3
 SPLITS = ("tuning", "evaluation")
 
 _RANGES = {
@@ -73,7 +77,9 @@ class SceneCase:
     """One benchmark scene: what to render and how long.
 
     ``reaim`` is the (first, last + 1) frames during which the camera is panned by ``pan_px``
-    per frame (then it stays at its new aim); None for a camera that is never moved.
+    per frame (then it stays at its new aim); None for a camera that is never moved. For a
+    knocked camera, ``reaim`` is the knock's frames and the view turns by ``pan_px`` and
+    rolls by ``roll_deg`` (counter-clockwise as shown) in all over them.
     ``density`` is the precipitation's streak count for a 640x360 frame (0 when clear), for the
     rank test of R; the count drawn scales with the frame's area.
     """
@@ -91,6 +97,7 @@ class SceneCase:
     density: float
     reaim: tuple[int, int] | None = None
     pan_px: tuple[float, float] = (0.0, 0.0)
+    roll_deg: float = 0.0
     #: frames of the transition's rain phase, [start, end)
     rain_frames: tuple[int, int] | None = None
     #: the frames go through H.264 (libx264, this constant-quality factor) and back; None: not
@@ -159,12 +166,21 @@ def sample_case(
         density = float(flakes.count)
     reaim = None
     pan = (0.0, 0.0)
+    roll = 0.0
     if camera == "reaim":
         start = int(frames * 0.55)
         reaim = (start, start + round(2.0 * fps))
         angle = float(rng.uniform(0, 2 * np.pi))
         speed = float(rng.uniform(1.0, 3.0))  # px a frame
         pan = (speed * np.cos(angle), speed * np.sin(angle))
+    elif camera == "knock":
+        # a blow to the mast: the view jumps by 1-3 % of its width and rolls by 1-4 degrees
+        start = int(frames * 0.45)
+        reaim = (start, start + KNOCK_FRAMES)
+        angle = float(rng.uniform(0, 2 * np.pi))
+        jump = float(rng.uniform(0.01, 0.03)) * width
+        pan = (jump * np.cos(angle), jump * np.sin(angle))
+        roll = float(rng.uniform(1.0, 4.0)) * (1.0 if rng.random() < 0.5 else -1.0)
     name = f"{split}-{index:03d}-{condition}-{camera}"
     return SceneCase(
         name=name,
@@ -180,24 +196,32 @@ def sample_case(
         density=density,
         reaim=reaim,
         pan_px=pan,
+        roll_deg=roll,
         rain_frames=rain_frames,
         h264_crf=None if h264_crf is None else int(h264_crf),
     )
 
 
 def sample_cases(split: str, *, per_cell: int = 1, frames: int = 300) -> list[SceneCase]:
-    """Every condition with a static and a wind-shaken camera, and clear weather with a
-    re-aimed one, ``per_cell`` scenes each."""
+    """Every condition with a static and a wind-shaken camera, clear weather with a re-aimed
+    one, and clear weather and moderate rain with a knocked one, ``per_cell`` scenes each.
+
+    The knocked cameras come last, so that every other scene keeps the index (and seed) it
+    had before they were added."""
     cases = []
     index = 0
-    for condition in CONDITIONS:
-        cameras = ("static", "wind", "reaim") if condition == "clear" else ("static", "wind")
-        for camera in cameras:
-            for _ in range(per_cell):
-                cases.append(
-                    sample_case(split, index, condition=condition, camera=camera, frames=frames)
-                )
-                index += 1
+    cells = [
+        (condition, camera)
+        for condition in CONDITIONS
+        for camera in (("static", "wind", "reaim") if condition == "clear" else ("static", "wind"))
+    ]
+    cells += [("clear", "knock"), ("moderate", "knock")]
+    for condition, camera in cells:
+        for _ in range(per_cell):
+            cases.append(
+                sample_case(split, index, condition=condition, camera=camera, frames=frames)
+            )
+            index += 1
     return cases
 
 
@@ -216,17 +240,27 @@ def case_frames(case: SceneCase) -> Iterator[CaseFrame]:
     scene = Scene(case.width, case.height, seed=case.seed, params=case.params)
     codec = None if case.h264_crf is None else H264RoundTrip(case, case.h264_crf)
     offset = np.zeros(2)
+    roll = 0.0
+    steps = 1 if case.reaim is None else case.reaim[1] - case.reaim[0]
+    centre = (case.width / 2.0, case.height / 2.0)
     for i in range(case.frames):
         gray, truth = scene.frame(i)
         moving = case.reaim is not None and case.reaim[0] <= i < case.reaim[1]
-        if moving:
+        if moving and case.camera == "knock":
+            offset += np.asarray(case.pan_px) / steps
+            roll += case.roll_deg / steps
+        elif moving:
             offset += case.pan_px
-        if offset.any():
-            m = np.float32([[1, 0, offset[0]], [0, 1, offset[1]]])
+        if offset.any() or roll:
+            m = cv2.getRotationMatrix2D(centre, roll, 1.0)
+            m[:, 2] += offset
             gray = cv2.warpAffine(gray, m, (case.width, case.height), borderMode=cv2.BORDER_REFLECT)
         if codec is not None:
             gray = codec(gray)
-        yield CaseFrame(gray, bool(truth.precipitation), moving, float(truth.mu))
+        # a roll counter-clockwise as shown turns a streak's orientation (measured from x
+        # toward y, clockwise as shown) back by as much
+        mu = float(truth.mu) - math.radians(roll)
+        yield CaseFrame(gray, bool(truth.precipitation), moving, mu)
 
 
 class H264RoundTrip:

@@ -111,3 +111,39 @@ def test_h264_scenes_come_back_compressed_frame_for_frame() -> None:
     assert len(coded) == 12 and all(f.gray.shape == (121, 161) for f in coded)
     diff = [np.abs(a.gray.astype(int) - b.gray).mean() for a, b in zip(plain, coded, strict=True)]
     assert all(0.05 < d < 8.0 for d in diff), diff  # compressed, and still the same frame
+
+
+def test_truth_of_a_knocked_camera() -> None:
+    case = sample_case("tuning", 2, condition="moderate", camera="knock", frames=80)
+    case = replace(case, width=160, height=120, reaim=(40, 43))
+    assert case.roll_deg != 0 and 1.0 <= abs(case.roll_deg) <= 4.0
+    frames = list(case_frames(case))
+    assert [f.moving for f in frames] == [40 <= i < 43 for i in range(80)]
+    before, after = frames[39], frames[43]
+    # the drawn orientation turns with the view: back by the roll once the knock is over
+    assert after.mu == pytest.approx(before.mu - math.radians(case.roll_deg))
+    assert frames[41].mu == pytest.approx(before.mu - math.radians(case.roll_deg) * 2 / 3)
+
+
+@pytest.mark.parametrize("roll", [-4.0, 3.0])
+def test_a_roll_turns_orientations_as_the_truth_says(roll: float) -> None:
+    """The sign convention of ``case_frames``: OpenCV's rotation (counter-clockwise as shown)
+    turns a streak's orientation (from x toward y, clockwise as shown) back by the roll."""
+    import cv2
+
+    from hos.moments import blob_moments
+
+    img = np.zeros((201, 201), np.uint8)
+    theta = math.radians(70.0)
+    dx, dy = 60 * math.cos(theta), 60 * math.sin(theta)
+    cv2.line(img, (round(100 - dx), round(100 - dy)), (round(100 + dx), round(100 + dy)), 255, 3)
+    m = cv2.getRotationMatrix2D((100.0, 100.0), roll, 1.0)
+
+    def orientation(image: np.ndarray) -> float:
+        ys, xs = np.nonzero(image > 127)
+        return float(blob_moments(xs, ys, np.ones(xs.size, np.intp), 2).theta[1])
+
+    drawn = orientation(img)  # 70 degrees, as rasterised
+    got = orientation(cv2.warpAffine(img, m, (201, 201)))
+    assert ev.wrapped_deg(got, drawn - math.radians(roll)) < 0.2
+    assert ev.wrapped_deg(got, drawn + math.radians(roll)) > 5.0

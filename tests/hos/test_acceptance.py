@@ -241,6 +241,37 @@ def test_camera_being_re_aimed_says_unstable():
     assert not any(rain)
 
 
+@pytest.mark.parametrize("rest_frames", [10, 0])
+def test_a_knocked_camera_judges_again_at_its_new_aim(rest_frames):
+    """A blow turns the view by 8 px and rolls it by 1.5 degrees in 3 frames: unstable while it
+    happens, never rain, and judging the rain again once the new view is learnt (about 10 +
+    60 frames; the reference alone would take over 100). ``rest_frames = 0`` is the control:
+    without learning the new view at once, the camera is still not judging 90 frames on."""
+    rain = StreakParams(count=350, brightness=40.0)
+    scene = Scene(W, H, seed=5, params=SceneParams(cars=2, rain=rain))
+    params = DetectorParams.from_dict({"robustness": {"rest_frames": rest_frames}})
+    det = HosDetector(params)
+    states, verdicts = [], []
+    for i in range(300):
+        gray, _ = scene.frame(i)
+        k = min(max(i - 149, 0), 3)  # frames 150-152 are the knock
+        if k:
+            m = cv2.getRotationMatrix2D((W / 2, H / 2), 0.5 * k, 1.0)
+            m[:, 2] += (2.4 * k, -1.2 * k)
+            gray = cv2.warpAffine(gray, m, (W, H), borderMode=cv2.BORDER_REFLECT)
+        r = det.process(gray, i / 25)
+        states.append(r.state)
+        verdicts.append(r.rain)
+    assert states[100:150].count(State.OK) == 50 and all(verdicts[110:150])
+    assert all(s == State.UNSTABLE for s in states[150:153])
+    if rest_frames:
+        back = next(i for i in range(153, 300) if states[i] == State.OK)
+        assert back - 153 <= 90
+        assert all(s == State.OK for s in states[back:]) and np.mean(verdicts[back + 10 :]) > 0.9
+    else:
+        assert State.OK not in states[153:243]
+
+
 def test_demo_street_has_no_false_rain_in_its_clear_phases():
     """The demo's first two minutes (seed 4): a gust in the tree or a pedestrian made 12-25
     blobs look like a streak population, and one such fit moved the smoothed Pi over the
