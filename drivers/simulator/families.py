@@ -46,6 +46,11 @@ _RANGES = {
         # H.264 (libx264, constant quality) instead of the JPEG drawn above: None keeps it
         "h264_crf": [None, None, 23, 28],
         "full_hd": 0.0,  # chance of 1920x1080 instead of the size drawn above
+        # a wet road (spray, lights mirrored in it): its chance while it rains, and in clear
+        # weather (after rain); dense traffic: the chance of 4-8 more vehicles
+        "wet_rain": 0.7,
+        "wet_clear": 0.3,
+        "dense": 0.25,
         "seed0": 10_000,
     },
     "evaluation": {
@@ -60,6 +65,9 @@ _RANGES = {
         "wind": (0.2, 0.5),
         "h264_crf": [None, None, 26, 32],
         "full_hd": 0.15,
+        "wet_rain": 0.8,
+        "wet_clear": 0.4,
+        "dense": 0.35,
         "seed0": 50_000,
     },
 }
@@ -121,6 +129,13 @@ def sample_case(
     extra = np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 1])
     h264_crf = r["h264_crf"][extra.integers(len(r["h264_crf"]))]
     full_hd = bool(extra.random() < float(r["full_hd"]))
+    # ... and so do the wet road and dense traffic
+    road = np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 2])
+    wet_chance = r["wet_clear"] if condition == "clear" else r["wet_rain"]
+    wet = (
+        float(road.uniform(0.5, 1.0)) if condition != "snow" and road.random() < wet_chance else 0.0
+    )
+    more_cars = int(road.integers(4, 9)) if road.random() < float(r["dense"]) else 0
     width, height = r["sizes"][rng.integers(len(r["sizes"]))]
     if full_hd:
         width, height = 1920, 1080
@@ -143,6 +158,9 @@ def sample_case(
         jpeg_quality=None if jpeg is None else int(jpeg),
         shake_px=uniform("wind") if camera == "wind" else 0.0,
         darkness=uniform("darkness"),
+    )
+    params = replace(
+        params, cars=params.cars + more_cars, wet_road=wet, wet_always=condition == "clear"
     )
     density = 0.0
     rain_frames = None

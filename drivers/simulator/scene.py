@@ -34,6 +34,7 @@ from .street import (
     _Y_ROAD,
     _draw_vehicle,
     _draw_walker,
+    _draw_wet_road,
     _paint_background,
 )
 
@@ -68,6 +69,10 @@ class SceneParams:
     shake_px : camera shake: the whole frame is translated by a smooth random motion (about
         3 Hz) plus a per-frame jitter, of typical amplitude ``shake_px`` px; 0: still
     darkness : global dimming, 0 (day) to 1 (black): the scene is multiplied by 1 - darkness
+    wet_road : how wet the road is while it rains (and for 10 s after), 0 (dry) to 1: vehicles
+        throw spray behind their wheels and their lights are mirrored in the road as vertical
+        bright streaks under them (``street._draw_wet_road``); 0: never
+    wet_always : the road is wet (``wet_road``) even in clear weather, as after rain
     rain, snow : the precipitation layers, or None
     schedule : intensity of the precipitation per frame: None (1 always), a number, a sequence
         indexed by frame (frames past its end take its last value), or a callable of the frame
@@ -88,6 +93,8 @@ class SceneParams:
     jpeg_quality: int | None = None
     shake_px: float = 0.0
     darkness: float = 0.0
+    wet_road: float = 0.0
+    wet_always: bool = False
     rain: StreakParams | None = None
     snow: SnowParams | None = None
     schedule: Schedule | float | None = None
@@ -115,6 +122,7 @@ class SceneParams:
         )
         _require(self.shake_px >= 0, "SceneParams.shake_px", "must be >= 0")
         _require(0 <= self.darkness < 1, "SceneParams.darkness", "must be in [0, 1)")
+        _require(0 <= self.wet_road <= 1, "SceneParams.wet_road", "must be in [0, 1]")
 
     @classmethod
     def busy(cls, **overrides: object) -> SceneParams:
@@ -181,6 +189,10 @@ class FrameTruth:
 # Separate streams keep, e.g., the rain of frame i the same whatever distractors are on.
 _BACKGROUND, _RAIN, _SNOW, _NOISE, _JITTER, _SHAKE = range(6)
 _GUST, _FLUTTER, _CAR, _PED, _EXPOSURE = range(6, 11)
+_SPRAY = 11
+#: A road stays wet this long after the rain, s (it dries over hours; the benchmark's scenes
+#: last seconds, so a clear scene on a wet road says so with ``SceneParams.wet_always``).
+_WET_AFTER_S = 10.0
 
 
 class Scene:
@@ -434,8 +446,22 @@ class Scene:
         cycle, local = divmod(i + phase, period)
         return np.random.default_rng([self.seed, stream, k, cycle]), local
 
+    def _wetness(self, i: int) -> float:
+        """How wet the road is at frame ``i``: ``wet_road`` while it rains, for
+        ``_WET_AFTER_S`` after, or always with ``wet_always``; else 0."""
+        p = self.params
+        if p.wet_road <= 0 or (p.rain is None and not p.wet_always):
+            return 0.0
+        if p.wet_always:
+            return p.wet_road
+        back = math.ceil(_WET_AFTER_S * p.fps)
+        step = max(1, back // 20)
+        rained = any(self._intensity(j)[0] > 0 for j in range(max(0, i - back), i + 1, step))
+        return p.wet_road if rained or self._intensity(i)[0] > 0 else 0.0
+
     def _draw_cars(self, img: np.ndarray, i: int) -> None:
         p, h, w = self.params, self.height, self.width
+        wet = self._wetness(i)
         order = sorted(range(p.cars), key=lambda k: k % 2)  # far lane first: near cars occlude
         for k in order:
             near = k % 2 == 1
@@ -456,6 +482,9 @@ class Scene:
             direction = -1.0 if near else 1.0
             x_left = w - v * tau if near else -length * px_m + v * tau
             _draw_vehicle(img, x_left, base, px_m, length, direction, van, rng)
+            if wet > 0:
+                spray = np.random.default_rng([self.seed, _SPRAY, k, i])
+                _draw_wet_road(img, x_left, base, px_m, length, direction, wet, spray)
 
     def _draw_pedestrians(self, img: np.ndarray, i: int) -> None:
         p, h, w = self.params, self.height, self.width

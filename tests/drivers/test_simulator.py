@@ -379,6 +379,40 @@ def test_cars_pedestrians_and_foliage_move_where_they_should():
     assert not changed[: int(0.5 * h), SIZE[0] // 3 :].any()  # façades and sky stay put
 
 
+def test_a_wet_road_adds_spray_and_reflections_around_the_vehicles_only_when_wet():
+    """Spray and the lights' reflections move with the vehicles (within their lane band), are
+    bright, change from frame to frame, and appear only while it rains (and 10 s after) or on
+    a road that is always wet; a dry road is the scene it was."""
+    h = SIZE[1]
+    rain = StreakParams(count=50)
+    plain = _scene(seed=12, cars=6, rain=rain)
+    assert _scene(seed=12, cars=6, rain=rain, wet_road=0.0).frame(30)[0].tobytes() == (
+        plain.frame(30)[0].tobytes()
+    )
+    wet = _scene(seed=12, cars=6, rain=rain, wet_road=1.0)
+    diff = np.zeros(SIZE[::-1])
+    for i in range(0, 200, 5):
+        d = wet.frame(i)[0].astype(float) - plain.frame(i)[0]
+        assert d.min() >= -1.0  # only brighter
+        diff = np.maximum(diff, d)
+    rows = (diff > 8).mean(axis=1)
+    assert rows[int(0.62 * h) : int(0.95 * h)].max() > 0.05  # around the lanes
+    assert not (diff[: int(0.55 * h)] > 8).any()  # nowhere above the road
+    a, b = wet.frame(40)[0].astype(float), wet.frame(41)[0].astype(float)
+    assert a.tobytes() != b.tobytes()
+    # clear weather: dry, unless the road is always wet
+    clear = _scene(seed=12, cars=6, wet_road=1.0)
+    assert clear.frame(40)[0].tobytes() == _scene(seed=12, cars=6).frame(40)[0].tobytes()
+    after = _scene(seed=12, cars=6, wet_road=1.0, wet_always=True)
+    assert after.frame(40)[0].tobytes() != _scene(seed=12, cars=6).frame(40)[0].tobytes()
+    # a shower of 2 s at 25 fps: still wet 4 s after it, dry 14 s after
+    shower = [1.0] * 50 + [0.0]
+    wet_then = _scene(seed=12, cars=6, rain=rain, schedule=shower, wet_road=1.0)
+    dry_then = _scene(seed=12, cars=6, rain=rain, schedule=shower)
+    assert wet_then._wetness(150) == 1.0 and wet_then._wetness(400) == 0.0
+    assert wet_then.frame(400)[0].tobytes() == dry_then.frame(400)[0].tobytes()
+
+
 # -- demo and video -----------------------------------------------------------------------------
 
 
