@@ -248,8 +248,10 @@ class RobustnessParams:
     #: by a square of ``traffic_width`` pixels (streaks vanish) and cut into cells of
     #: ``traffic_cell`` pixels (both at ``size_reference_height`` rows); a cell more than
     #: ``traffic_density`` full is dense. Cells dense (or next to one) more often than
-    #: ``max(traffic_rate, traffic_ratio * median cell)`` over ``traffic_frames`` frames are
-    #: traffic, and with ``traffic_now`` so are the frame's own bodies (2 x 2 dense cells).
+    #: ``max(traffic_rate, traffic_ratio * median cell)`` (a mean over the frames seen, then
+    #: over ``traffic_frames``), and dense at least ``traffic_hits`` times, are traffic; with
+    #: ``traffic_now`` so are the frame's own bodies (2 x 2 dense cells). Both are grown by a
+    #: cell, and by ``traffic_below`` cells downward (lights mirrored in a wet road).
     #: ``traffic = false``: the paper's HOS of every blob.
     traffic: bool = True
     traffic_cell: int = 8
@@ -259,6 +261,8 @@ class RobustnessParams:
     traffic_rate: float = 0.02
     traffic_ratio: float = 3.0
     traffic_now: bool = True
+    traffic_hits: float = 5.0
+    traffic_below: int = 2
 
     def __post_init__(self) -> None:
         _check(self.warmup_frames >= 0, "warmup_frames", "must be >= 0")
@@ -282,6 +286,9 @@ class RobustnessParams:
         _check(0 < self.traffic_density < 1, "traffic_density", "must be in (0, 1)")
         _check(self.traffic_frames >= 1, "traffic_frames", "must be >= 1")
         _check(0 <= self.traffic_rate < 1, "traffic_rate", "must be in [0, 1)")
+        _check(self.traffic_ratio >= 0, "traffic_ratio", "must be >= 0")
+        _check(self.traffic_hits >= 0, "traffic_hits", "must be >= 0")
+        _check(self.traffic_below >= 0, "traffic_below", "must be >= 0")
 
 
 @dataclass(frozen=True)

@@ -516,6 +516,7 @@ class HosDetector:
             brightness=seg.brightness,
             candidate_fraction=candidate_fraction,
             n_structural_blobs=int(np.count_nonzero(sized & structural)),
+            n_traffic_blobs=int(np.count_nonzero(traffic)),
             labels=blobs.labels,
             blob_class=blob_class,
             pixel_index=blobs.index,
@@ -536,6 +537,8 @@ class HosDetector:
             rate=rob.traffic_rate,
             ratio=rob.traffic_ratio,
             now=rob.traffic_now,
+            hits=rob.traffic_hits,
+            below=rob.traffic_below,
         )
 
     def _at_rest_elsewhere(self, motion_px: float, dx: float, dy: float) -> bool:

@@ -86,6 +86,7 @@ class FrameResult:
     brightness: float = 0.0
     candidate_fraction: float = 0.0
     n_structural_blobs: int = 0
+    n_traffic_blobs: int = 0
     #: (H, W) int32 labels of the candidate mask and (n_labels,) uint8 class of each label.
     #: ``labels`` may be None when the labels are kept sparse, as the candidate pixels' flat
     #: indices ``pixel_index`` (N,) and their labels ``pixel_labels`` (N,): see label_image().
@@ -131,6 +132,7 @@ class FrameResult:
             "gain": json_float(self.gain),
             "brightness": json_float(self.brightness),
             "n_structural_blobs": int(self.n_structural_blobs),
+            "n_traffic_blobs": int(self.n_traffic_blobs),
         }
 
 

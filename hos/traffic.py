@@ -40,9 +40,12 @@ class TrafficMap:
     width : the foreground is eroded by a square of this side first (1: not at all), so that
         streaks up to ``width - 1`` pixels wide leave nothing
     density : a cell whose eroded foreground fraction exceeds this is dense
-    frames : time constant of the running rate of dense cells, in frames (it starts from 0)
+    frames : time constant of the running rate of dense cells, in frames (a plain mean over
+        the frames seen until then)
     rate, ratio : cells dense more often than ``max(rate, ratio * median rate)`` are traffic
         (the median: rain, however dense, is dense everywhere alike); ``rate = 0``: no map
+    hits : ... once they have been dense this many times (a body or two seen in the first
+        frames, whose mean is then high, make no lane)
     now : also the bodies of the current frame (dense cells in a block of 2 x 2 at least:
         a lone dense cell can be streaks crossing), grown by one cell
     """
@@ -58,6 +61,8 @@ class TrafficMap:
         rate: float,
         ratio: float = 0.0,
         now: bool = True,
+        hits: float = 0.0,
+        below: int = 0,
     ) -> None:
         h, w = shape
         self.cell = max(int(cell), 1)
@@ -69,6 +74,10 @@ class TrafficMap:
         self.threshold = float(rate)
         self.ratio = float(ratio)
         self.now = bool(now)
+        self.hits = float(hits)
+        self.below = max(int(below), 0)
+        self._down = np.ones((self.below + 1, 1), np.uint8)
+        self.learnt = 0
         self.rate = np.zeros(self.grid, dtype=np.float32)
         self.mask = np.zeros(self.grid, dtype=bool)
 
@@ -85,29 +94,43 @@ class TrafficMap:
         level = np.float32(self.density * float(max(int(foreground.max(initial=0)), 1)))
         return (frac > level).view(np.uint8)
 
-    @staticmethod
-    def bodies(dense: np.ndarray) -> np.ndarray:
+    def grow(self, cells: np.ndarray) -> np.ndarray:
+        """(gh, gw) uint8: ``cells`` grown by one cell all round (fragments and spray sit at a
+        body's rim), and by ``below`` more downward (a vehicle's lights mirrored in a wet road
+        hang under it, about as far as the lights are high)."""
+        grown = cv2.dilate(cells, _SQUARE)
+        if self.below:
+            grown = cv2.dilate(grown, self._down, anchor=(0, self.below))
+        return grown
+
+    def bodies(self, dense: np.ndarray) -> np.ndarray:
         """(gh, gw) bool: dense cells that belong to a block of 2 x 2 dense cells (an opening,
-        marked at each block's corner and spread back over it), grown by one cell."""
+        marked at each block's corner and spread back over it), grown (:meth:`grow`)."""
         corner = cv2.erode(dense, _BLOCK, anchor=(0, 0), borderType=cv2.BORDER_CONSTANT)
         core = cv2.dilate(corner, _BLOCK, anchor=(1, 1), borderType=cv2.BORDER_CONSTANT)
-        return cv2.dilate(core, _SQUARE).view(bool)
+        return self.grow(core).view(bool)
 
     def update(self, foreground: np.ndarray, *, learn: bool) -> np.ndarray:
         """Take one frame's foreground; ``learn``: also update the running rate. Returns the
         (gh, gw) bool traffic mask of this frame."""
         dense = self.dense(foreground)
         if learn:
-            # grown by one cell: fragments and spray sit at a body's rim. From zero: a cell
-            # needs about ``rate * frames`` dense frames to become traffic.
-            grown = cv2.dilate(dense, _SQUARE).astype(np.float32)
-            cv2.accumulateWeighted(grown, self.rate, self.k)
+            self.learnt += 1
+            cv2.accumulateWeighted(self.grow(dense).astype(np.float32), self.rate, self.k)
         mask = self.bodies(dense) if self.now else np.zeros(self.grid, dtype=bool)
-        if self.threshold > 0:
+        if self.threshold > 0 and self.learnt:
+            # The running mean from zero, corrected for its start (the mean of the frames
+            # learnt so far, then the running mean); a cell is traffic once it has also been
+            # dense ``hits`` times, so that a body or two seen early make no lane.
+            seen = 1.0 - (1.0 - self.k) ** self.learnt
+            rate = self.rate / np.float32(seen)
             level = self.threshold
             if self.ratio > 0:
-                level = max(level, self.ratio * float(np.median(self.rate)))
-            mask |= self.rate > level
+                level = max(level, self.ratio * float(np.median(rate)))
+            lane = rate > level
+            if self.hits > 0:
+                lane &= rate * np.float32(min(self.learnt, 1.0 / self.k)) >= self.hits
+            mask |= lane
         self.mask = mask
         return self.mask
 
