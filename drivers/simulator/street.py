@@ -10,7 +10,7 @@ numpy Generator, so that a seed gives the same street.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import cv2
@@ -294,6 +294,15 @@ def _paint_crown(w: int, h: int, xt: float, rng: np.random.Generator) -> _Foliag
     return _Foliage(value, alpha, (y0, x0), grid_x, grid_y, phase + rng.uniform(0, 2 * np.pi))
 
 
+def _along(x_left: float, length: float, direction: float) -> Callable[[float], float]:
+    """x of the point a fraction f along a vehicle's body, 0 = rear, 1 = front."""
+
+    def at(f: float) -> float:
+        return x_left + length * (f if direction > 0 else 1.0 - f)
+
+    return at
+
+
 def _draw_vehicle(
     img: np.ndarray,
     x_left: float,
@@ -309,8 +318,7 @@ def _draw_vehicle(
     length = length_m * px_m
     x_right = x_left + length
 
-    def at(f: float) -> float:  # position along the body, 0 = rear, 1 = front
-        return x_left + length * (f if direction > 0 else 1.0 - f)
+    at = _along(x_left, length, direction)
 
     # Shadow on the road.
     ys = slice(max(0, int(base - 0.12 * px_m)), min(h, int(base + 0.12 * px_m) + 1))
@@ -384,8 +392,7 @@ def _draw_wet_road(
     h, w = img.shape
     length = length_m * px_m
 
-    def at(f: float) -> float:
-        return x_left + length * (f if direction > 0 else 1.0 - f)
+    at = _along(x_left, length, direction)
 
     # Reflections of the lights: 0.6-1.1 m long, 0.1 m wide, fading downward.
     for f, bright in ((0.985, 0.45), (0.015, 0.3)):
