@@ -293,21 +293,16 @@ class HosDetector:
         rob = p.robustness
         shape = seg.foreground.shape
         h = shape[0]
+        relearning = seg.state == State.SCENE_CHANGE
         if self._rate is None or self._rate.shape != shape:
-            self._rate = CandidateRate(shape, rob.persistence_frames)
-            self._rate_frames = 0
+            self._learn_view(shape)
             self._photometric = PhotometricRule(p.segmentation, compiled=self.compiled)
             self._moving = 0.0
             self._shaken = 0
-            self._traffic = self._traffic_map(shape)
-            self._relearning = False
-        relearning = seg.state == State.SCENE_CHANGE
-        if relearning and not self._relearning:
+        elif relearning and not self._relearning:
             # The view changed as a whole (a knock, lights): what recurred in place and where
             # the traffic went are the old view's; both are learnt again, as after the warm-up.
-            self._rate = CandidateRate(shape, rob.persistence_frames)
-            self._rate_frames = 0
-            self._traffic = self._traffic_map(shape)
+            self._learn_view(shape)
         self._relearning = relearning
         self._rate_frames += 1
 
@@ -524,11 +519,14 @@ class HosDetector:
             image_shape=shape,
         )
 
-    def _traffic_map(self, shape: tuple[int, int]) -> TrafficMap:
-        """A new, empty map of where the traffic goes, its cells sized for ``shape``."""
+    def _learn_view(self, shape: tuple[int, int]) -> None:
+        """Start the maps learnt from what one view shows: the structure rule's per-pixel
+        candidate rate and the map of where the traffic goes (cells sized for ``shape``)."""
         rob = self.params.robustness
+        self._rate = CandidateRate(shape, rob.persistence_frames)
+        self._rate_frames = 0
         at = shape[0] / self.params.segmentation.size_reference_height
-        return TrafficMap(
+        self._traffic = TrafficMap(
             shape,
             cell=max(round(rob.traffic_cell * at), 1),
             width=max(round(rob.traffic_width * at), 1),

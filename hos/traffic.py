@@ -82,8 +82,8 @@ class TrafficMap:
         self.mask = np.zeros(self.grid, dtype=bool)
 
     def dense(self, foreground: np.ndarray) -> np.ndarray:
-        """(gh, gw) uint8, 1 where a cell of ``foreground`` (uint8, nonzero = foreground) is
-        dense once eroded."""
+        """(gh, gw) uint8, 1 where a cell of ``foreground`` (uint8, 255 = foreground, as both
+        segmenters give it) is dense once eroded."""
         gh, gw = self.grid
         h, w = foreground.shape
         ph, pw = gh * self.cell - h, gw * self.cell - w
@@ -91,8 +91,7 @@ class TrafficMap:
         if ph or pw:  # pad to whole cells (the padding is background)
             fg = cv2.copyMakeBorder(fg, 0, ph, 0, pw, cv2.BORDER_CONSTANT, value=0)
         frac = cv2.resize(fg, (gw, gh), interpolation=cv2.INTER_AREA)
-        level = np.float32(self.density * float(max(int(foreground.max(initial=0)), 1)))
-        return (frac > level).view(np.uint8)
+        return (frac > np.float32(self.density * 255.0)).view(np.uint8)
 
     def grow(self, cells: np.ndarray) -> np.ndarray:
         """(gh, gw) uint8: ``cells`` grown by one cell all round (fragments and spray sit at a
@@ -142,8 +141,3 @@ class TrafficMap:
         gy = np.clip(gy, 0, self.grid[0] - 1)
         gx = np.clip(gx, 0, self.grid[1] - 1)
         return self.mask[gy, gx]
-
-    @property
-    def fraction(self) -> float:
-        """Fraction of the cells that are traffic."""
-        return float(np.count_nonzero(self.mask)) / self.mask.size
