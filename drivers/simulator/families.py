@@ -45,7 +45,10 @@ _RANGES = {
         "wind": (0.1, 1.0),
         # H.264 (libx264, constant quality) instead of the JPEG drawn above: None keeps it
         "h264_crf": [None, None, 23, 28],
-        "full_hd": 0.0,  # chance of 1920x1080 instead of the size drawn above
+        # chance of a large frame instead of the size drawn above: 1600x900 here (the size
+        # rule scales with the height, and a split without a large frame cannot show how)
+        "large_chance": 0.15,
+        "large": (1600, 900),
         # a wet road (spray, lights mirrored in it): its chance while it rains, and in clear
         # weather (after rain); dense traffic: the chance of 4-8 more vehicles
         "wet_rain": 0.7,
@@ -64,7 +67,8 @@ _RANGES = {
         "darkness": (0.0, 0.6),
         "wind": (0.2, 0.5),
         "h264_crf": [None, None, 26, 32],
-        "full_hd": 0.15,
+        "large_chance": 0.15,
+        "large": (1920, 1080),
         "wet_rain": 0.8,
         "wet_clear": 0.4,
         "dense": 0.35,
@@ -128,7 +132,7 @@ def sample_case(
     # other draw of a scene as it was.
     extra = np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 1])
     h264_crf = r["h264_crf"][extra.integers(len(r["h264_crf"]))]
-    full_hd = bool(extra.random() < float(r["full_hd"]))
+    large = bool(extra.random() < float(r["large_chance"]))
     # ... and so do the wet road and dense traffic
     road = np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 2])
     wet_chance = r["wet_clear"] if condition == "clear" else r["wet_rain"]
@@ -137,8 +141,8 @@ def sample_case(
     )
     more_cars = int(road.integers(4, 9)) if road.random() < float(r["dense"]) else 0
     width, height = r["sizes"][rng.integers(len(r["sizes"]))]
-    if full_hd:
-        width, height = 1920, 1080
+    if large:
+        width, height = r["large"]
     fps = float(r["fps"][rng.integers(len(r["fps"]))])
     jpeg = r["jpeg"][rng.integers(len(r["jpeg"]))]
     if h264_crf is not None:

@@ -105,6 +105,7 @@ def test_h264_scenes_come_back_compressed_frame_for_frame() -> None:
     assert {c.h264_crf for c in evaluation} >= {None, 26, 32}
     assert all(c.params.jpeg_quality is None for c in tuning + evaluation if c.h264_crf)
     assert any(c.width == 1920 for c in evaluation) and all(c.width < 1920 for c in tuning)
+    assert any(c.width == 1600 for c in tuning)  # the tuning split's large frame
     case = replace(next(c for c in tuning if c.h264_crf), width=161, height=121, frames=12)
     plain = list(case_frames(replace(case, h264_crf=None)))
     coded = list(case_frames(case))
