@@ -48,11 +48,19 @@ class SegmentationParams:
     mog_background_ratio: float = 0.9
     #: c of eqs. 8 and 32 (grey levels): rain is brighter than what it occludes.
     photometric_c: float = 3.0
-    #: Size rule (section 2.4): blob areas in pixels at ``size_reference_height`` rows; scaled by
-    #: ``(height / size_reference_height) ** 2`` so that one setting serves every resolution.
+    #: Size rule (section 2.4): blob areas in pixels at ``size_reference_height`` rows, scaled
+    #: to the frame's height so that one setting serves every resolution (below).
     min_area: int = 4
     max_area: int = 50
     size_reference_height: int = 480
+    #: How ``min_area`` scales. ``"area"`` (the default): with the height squared, as
+    #: ``max_area`` does; at 1080 rows it rejects every blob of fewer than 21 pixels.
+    #: ``"length"`` (beyond the paper): with the height, since a streak is a pixel or two wide
+    #: at any resolution and its area grows as its length: faint short streaks at 720 and
+    #: 1080 rows are seen, and so are more fragments of swaying foliage. With ``min_area_px``
+    #: they agree at 240 rows and below and at 360; "length" asks 3 pixels at 270 rows (2
+    #: with "area"), 6 at 720 (9) and 9 at 1080 (21) (docs/method.md, departure 15).
+    min_area_scaling: Literal["length", "area"] = "area"
     #: Beyond the paper: whatever the resolution, a blob of fewer pixels has no orientation to
     #: vote with (one pixel's second moments are isotropic; two give 0, 45 or 90 degrees).
     #: 0 keeps the scaled ``min_area`` alone.
@@ -69,6 +77,11 @@ class SegmentationParams:
         _check(0 <= self.photometric_c < 255, "photometric_c", "must be in [0, 255)")
         _check(1 <= self.min_area <= self.max_area, "min_area", "must be >= 1 and <= max_area")
         _check(self.size_reference_height >= 1, "size_reference_height", "must be >= 1")
+        _check(
+            self.min_area_scaling in ("length", "area"),
+            "min_area_scaling",
+            'must be "length" or "area"',
+        )
         _check(0 <= self.min_area_px <= self.max_area, "min_area_px", "must be in [0, max_area]")
         _check(0 < self.background_rate <= 1, "background_rate", "must be in (0, 1]")
 
@@ -157,6 +170,10 @@ class DecisionParams:
     #: a few pedestrians make a broad near-vertical population from frame to frame (31-35
     #: degrees at 320x240), a few streaks a narrow one.
     pool_sigma_max: float = math.radians(20.0)
+    #: ... and only if its blobs lie in at least this share of distinct cells
+    #: (``robustness.traffic_cell``): streaks land somewhere new in every frame; the parts of
+    #: a pedestrian or a light's reflection in a wet road, seen again and again, do not.
+    pool_places: float = 0.75
     #: Beyond the paper: a fit from fewer blobs is a noisier measurement. Its variance is
     #: ``measurement_var * max(1, measurement_blobs / n_eff)``, n_eff the effective number of
     #: blobs of the HOS (their weights' (sum w)^2 / sum w^2); 0 keeps the paper's constant.
@@ -181,6 +198,7 @@ class DecisionParams:
         _check(self.miss_measurement_var > 0, "miss_measurement_var", "must be > 0")
         _check(self.empty_measurement_var >= 0, "empty_measurement_var", "must be >= 0")
         _check(self.pool_frames >= 1, "pool_frames", "must be >= 1")
+        _check(0 <= self.pool_places <= 1, "pool_places", "must be in [0, 1]")
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
         _check(self.measurement_blobs >= 0, "measurement_blobs", "must be >= 0")
         _check(self.sigma_max > 0, "sigma_max", "must be > 0")

@@ -57,6 +57,10 @@ if _jit.ENABLED:
 __all__ = ["HosDetector", "Segmented", "classify_blobs"]
 
 _REDUCED_WIDTH = 240  # the image used for brightness, gain and motion is about this wide
+# ... but reduced by at most 4: a wind's 1.5 px at 1920x1080 is 0.19 px of a 240-px image, too
+# little for the motion fit to tell from noise (it then reads 0 and nothing is undone), and
+# 0.38 px of a 480-px one (docs/method.md, departure 7)
+_MAX_SCALE = 4
 
 
 def classify_blobs(
@@ -145,8 +149,9 @@ class HosDetector:
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
-        # the last frames' (HOS, blobs, sum of weights, sum of squared weights), newest first
-        self._pool: deque[tuple[np.ndarray, int, float, float]] = deque(
+        # the last frames' (HOS, blobs, sum of weights, sum of squared weights, the blobs'
+        # cells), newest first
+        self._pool: deque[tuple[np.ndarray, int, float, float, np.ndarray]] = deque(
             maxlen=self.params.decision.pool_frames
         )
         self._last_fit: tuple[float, float, float] | None = None
@@ -191,7 +196,7 @@ class HosDetector:
             self._roi = roi
             self._roi_flat = roi.reshape(-1) != 0
             self._roi_area = max(cv2.countNonZero(roi), 1)
-        self._scale = max(w // _REDUCED_WIDTH, 1)
+        self._scale = min(max(w // _REDUCED_WIDTH, 1), _MAX_SCALE)
         self._roi_small = None if self._roi is None else reduce(self._roi, self._scale) > 127
 
     def segment(self, gray: np.ndarray, t_s: float) -> Segmented:
@@ -292,7 +297,7 @@ class HosDetector:
         p = self.params
         rob = p.robustness
         shape = seg.foreground.shape
-        h = shape[0]
+        h, w = shape
         relearning = seg.state == State.SCENE_CHANGE
         if self._rate is None or self._rate.shape != shape:
             self._learn_view(shape)
@@ -352,9 +357,13 @@ class HosDetector:
         if seg.roi is not None:
             candidates = candidates[seg.roi[candidates]]
         candidate_fraction = candidates.size / seg.roi_area
-        area_scale = (h / p.segmentation.size_reference_height) ** 2
-        min_area = max(p.segmentation.min_area * area_scale, p.segmentation.min_area_px)
-        max_area = p.segmentation.max_area * area_scale
+        sp = p.segmentation
+        at = h / sp.size_reference_height
+        # the bounds scale with the area, or the lower one with the height only
+        # (SegmentationParams.min_area_scaling; docs/method.md, departure 15).
+        min_scale = at if sp.min_area_scaling == "length" else at * at
+        min_area = max(sp.min_area * min_scale, sp.min_area_px)
+        max_area = sp.max_area * at * at
 
         # 3. blobs, size rule, structure rule
         blobs = find_blobs_sparse(
@@ -409,8 +418,15 @@ class HosDetector:
         S = float(hist.sum())
         weights = mom.a[idx]
         dp = p.decision
-        fitted, n_pooled, pooled, n_eff = self._pooled_hos(
-            hist, int(idx.size), float(weights.sum()), float(np.sum(weights * weights)), hold
+        cell = max(round(p.robustness.traffic_cell * h / p.segmentation.size_reference_height), 1)
+        cells = (mom.y0[idx] // cell * (w // cell + 1) + mom.x0[idx] // cell).astype(np.int64)
+        fitted, n_pooled, pooled, n_eff, places = self._pooled_hos(
+            hist,
+            int(idx.size),
+            float(weights.sum()),
+            float(np.sum(weights * weights)),
+            hold,
+            cells,
         )
         if idx.size:
             mp = p.mixture
@@ -432,6 +448,9 @@ class HosDetector:
             and fit.gof_ok
             and fit.sigma <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
             and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
+            # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
+            # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)
+            and (pooled == 1 or places >= dp.pool_places * n_pooled)
         )
         if hold:
             smoothed = self._smoother.hold()
@@ -607,29 +626,38 @@ class HosDetector:
         return math.hypot(sx, sy) * scale
 
     def _pooled_hos(
-        self, hist: np.ndarray, n: int, w1: float, w2: float, hold: bool
-    ) -> tuple[np.ndarray, int, int, float]:
-        """The HOS to fit: ``(histogram, blobs, frames pooled, n_eff)`` (beyond the paper).
+        self, hist: np.ndarray, n: int, w1: float, w2: float, hold: bool, cells: np.ndarray
+    ) -> tuple[np.ndarray, int, int, float, int]:
+        """The HOS to fit: ``(histogram, blobs, frames pooled, n_eff, places)`` (beyond the
+        paper).
 
         A frame with fewer than ``decision.min_blobs`` blobs is fitted together with the frames
         before it, up to ``decision.pool_frames`` of them (faint rain at a low resolution leaves
         5-10 streaks a frame; their orientations agree from frame to frame, those of noise do
         not). ``w1``, ``w2``: sums of the blobs' weights and squared weights, for n_eff, the
-        effective number of blobs (sum w)^2 / sum w^2. A held frame empties the pool.
+        effective number of blobs (sum w)^2 / sum w^2. ``cells``: the cell of each blob
+        (``robustness.traffic_cell``); ``places`` is the number of distinct cells of the blobs
+        pooled (rain lands somewhere new each frame, a body's parts do not). A held frame
+        empties the pool.
         """
         if hold:
             self._pool.clear()
         else:
-            self._pool.appendleft((hist, n, w1, w2))
+            self._pool.appendleft((hist, n, w1, w2, cells))
         pooled = 1
+        places = n
         if 0 < n < self.params.decision.min_blobs and len(self._pool) > 1:
             hist = hist.copy()
-            for other, n_other, o1, o2 in itertools.islice(self._pool, 1, None):
+            seen = [cells]
+            for other, n_other, o1, o2, c in itertools.islice(self._pool, 1, None):
                 if n >= self.params.decision.min_blobs:
                     break
                 hist += other
+                seen.append(c)
                 n, w1, w2, pooled = n + n_other, w1 + o1, w2 + o2, pooled + 1
-        return hist, n, pooled, (w1 * w1 / w2 if w2 > 0 else 0.0)
+            if pooled > 1:
+                places = int(np.unique(np.concatenate(seen)).size)
+        return hist, n, pooled, (w1 * w1 / w2 if w2 > 0 else 0.0), places
 
     def _remember_foreground(self, foreground: np.ndarray, changed: float) -> None:
         """Where the background model saw motion, on the reduced grid, grown by a reduced pixel:

@@ -415,3 +415,53 @@ def test_a_pooled_frame_still_reports_its_own_histogram():
             few += 1
             assert r.histogram.sum() == pytest.approx(r.S)
     assert few >= 10
+
+
+def test_short_streaks_at_720_rows_pass_the_size_rule_that_scales_with_the_height():
+    """Drizzle-like streaks (5 px long, 8 grey levels) at 1280x720, with sensor noise: a streak
+    is a pixel or so wide at any resolution, so its area grows as its length. The paper's
+    bounds scaled with the area (the default) ask 9 pixels here and reject nearly all of them;
+    scaled with the height (``segmentation.min_area_scaling = "length"``), 6 pixels let them
+    vote (docs/method.md, departure 15)."""
+    drizzle = StreakParams(count=500, length_px=5.0, brightness=8.0, sigma_deg=12.0, mu_deg=95)
+    scene = Scene(1280, 720, seed=8, params=SceneParams(cars=1, rain=drizzle, sensor_noise=2.0))
+    frames = [scene.frame(i)[0] for i in range(150)]
+    said = {}
+    for scaling in ("length", "area"):
+        det = HosDetector(DetectorParams.from_dict({"segmentation": {"min_area_scaling": scaling}}))
+        results = [det.process(f, i / 25) for i, f in enumerate(frames)]
+        said[scaling] = np.mean([r.rain for r in results[90:]])
+        if scaling == "length":
+            mus = [math.degrees(r.mu_smoothed) for r in results[90:] if r.rain]
+            assert abs(np.median(mus) - 95) < 3
+    assert said["length"] > 0.9 and said["area"] < 0.1, said
+
+
+def _few_streaks(places: float, *, spread: bool) -> float:
+    """Three short vertical streaks a frame over a still textured scene, too few to fit alone:
+    at new random places every frame (rain) or at the same places, moving a pixel every four
+    frames (the parts of a distant walker). The share of frames said rain."""
+    rng = np.random.default_rng(3)
+    bg = cv2.GaussianBlur(rng.uniform(60, 120, (240, 320)).astype(np.float32), (0, 0), 3)
+    det = HosDetector(DetectorParams.from_dict({"decision": {"pool_places": places}}))
+    said = []
+    for i in range(200):
+        f = bg + rng.normal(0, 1.0, bg.shape).astype(np.float32)
+        if i >= 80:
+            for k in range(3):
+                if spread:
+                    x, y = rng.integers(10, 310), rng.integers(10, 220)
+                else:
+                    x, y = 100 + i // 4 + 3 * k, 120 + 7 * k
+                f[y : y + 5, x] += 40
+        said.append(det.process(np.clip(f, 0, 255).astype(np.uint8), i / 25).rain)
+    return float(np.mean(said[100:]))
+
+
+def test_a_pooled_fit_needs_its_blobs_spread_like_rain():
+    """``decision.pool_places``: pooled over four frames, a few parts seen again and again in
+    the same cells are no rain, while as few streaks landing somewhere new are; without the
+    rule (0) the parts were rain on about half the frames."""
+    assert _few_streaks(0.75, spread=False) == 0.0
+    assert _few_streaks(0.75, spread=True) > 0.9
+    assert _few_streaks(0.0, spread=False) > 0.3
