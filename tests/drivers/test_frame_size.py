@@ -120,7 +120,7 @@ def test_detect_memory_does_not_grow_with_frame_size(tmp_path: Path) -> None:
     """4x the pixels of 1080p (8.3 MP) cost the detector no more than a decoded frame: measured
     113-117 MB at 1080p and 120.7 MB at 2160p (110.2 and 110.1 MB before the motion estimate's
     reduced image was capped at a reduction by 4, which moved the peak to a moment when, likely,
-    2160p frame is still alive before it is shrunk: 8.3 MB, a byte a pixel). With the limit
+    the 2160p frame is still alive before it is shrunk: 8.3 MB, a byte a pixel). With the limit
     lifted, the same 2160p clip costs about 24 bytes more a pixel (259 MB), which is what the
     check would see if frames were not shrunk."""
     hd = _detect_peak_mb(write_flat_clip(tmp_path / "hd.avi", 1920, 1080))
