@@ -297,7 +297,7 @@ class HosDetector:
         p = self.params
         rob = p.robustness
         shape = seg.foreground.shape
-        h, w = shape
+        h = shape[0]
         relearning = seg.state == State.SCENE_CHANGE
         if self._rate is None or self._rate.shape != shape:
             self._learn_view(shape)
@@ -418,8 +418,7 @@ class HosDetector:
         S = float(hist.sum())
         weights = mom.a[idx]
         dp = p.decision
-        cell = max(round(p.robustness.traffic_cell * h / p.segmentation.size_reference_height), 1)
-        cells = (mom.y0[idx] // cell * (w // cell + 1) + mom.x0[idx] // cell).astype(np.int64)
+        cells = self._traffic.cells(mom.x0[idx], mom.y0[idx])  # where the blobs are, for pooling
         fitted, n_pooled, pooled, n_eff, places = self._pooled_hos(
             hist,
             int(idx.size),
@@ -636,7 +635,7 @@ class HosDetector:
         5-10 streaks a frame; their orientations agree from frame to frame, those of noise do
         not). ``w1``, ``w2``: sums of the blobs' weights and squared weights, for n_eff, the
         effective number of blobs (sum w)^2 / sum w^2. ``cells``: the cell of each blob
-        (``robustness.traffic_cell``); ``places`` is the number of distinct cells of the blobs
+        (the traffic map's grid); ``places`` is the number of distinct cells of the blobs
         pooled (rain lands somewhere new each frame, a body's parts do not). A held frame
         empties the pool.
         """

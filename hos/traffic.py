@@ -133,11 +133,15 @@ class TrafficMap:
         self.mask = mask
         return self.mask
 
-    def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-        """(N,) bool: whether each point (pixels) lies in a traffic cell of the last frame."""
+    def cells(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(N,) intp: the flat index of the cell each point (pixels) lies in."""
         # NaN (a label without pixels) goes to cell 0; such a blob is in no rule's way
         gy = np.nan_to_num(np.asarray(y, dtype=np.float64) / self.cell).astype(np.intp)
         gx = np.nan_to_num(np.asarray(x, dtype=np.float64) / self.cell).astype(np.intp)
         gy = np.clip(gy, 0, self.grid[0] - 1)
         gx = np.clip(gx, 0, self.grid[1] - 1)
-        return self.mask[gy, gx]
+        return gy * self.grid[1] + gx
+
+    def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        """(N,) bool: whether each point (pixels) lies in a traffic cell of the last frame."""
+        return self.mask.reshape(-1)[self.cells(x, y)]
