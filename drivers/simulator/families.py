@@ -255,6 +255,9 @@ class CaseFrame:
     precipitation: bool  # drawn in this frame
     moving: bool  # the camera is being moved
     mu: float  # radians, the drawn orientation (NaN when clear)
+    #: (H, W) bool, the pixels of the streaks or flakes that the scene drew at least
+    #: ``scene.VISIBLE_C`` brighter (before noise and compression), where the frame shows them
+    streaks: np.ndarray | None = None
 
 
 def case_frames(case: SceneCase) -> Iterator[CaseFrame]:
@@ -273,16 +276,25 @@ def case_frames(case: SceneCase) -> Iterator[CaseFrame]:
             roll += case.roll_deg / steps
         elif moving:
             offset += case.pan_px
+        streaks = truth.mask
         if offset.any() or roll:
             m = cv2.getRotationMatrix2D(centre, roll, 1.0)
             m[:, 2] += offset
-            gray = cv2.warpAffine(gray, m, (case.width, case.height), borderMode=cv2.BORDER_REFLECT)
+            size = (case.width, case.height)
+            gray = cv2.warpAffine(gray, m, size, borderMode=cv2.BORDER_REFLECT)
+            streaks = cv2.warpAffine(
+                streaks.view(np.uint8),
+                m,
+                size,
+                flags=cv2.INTER_NEAREST,
+                borderMode=cv2.BORDER_REFLECT,
+            ).view(bool)
         if codec is not None:
             gray = codec(gray)
         # a roll counter-clockwise as shown turns a streak's orientation (measured from x
         # toward y, clockwise as shown) back by as much
         mu = float(truth.mu) - math.radians(roll)
-        yield CaseFrame(gray, bool(truth.precipitation), moving, mu)
+        yield CaseFrame(gray, bool(truth.precipitation), moving, mu, streaks)
 
 
 class H264RoundTrip:

@@ -9,6 +9,7 @@ import math
 import sys
 from dataclasses import replace
 
+import cv2
 import numpy as np
 import pytest
 
@@ -148,3 +149,31 @@ def test_a_roll_turns_orientations_as_the_truth_says(roll: float) -> None:
     got = orientation(cv2.warpAffine(img, m, (201, 201)))
     assert ev.wrapped_deg(got, drawn - math.radians(roll)) < 0.2
     assert ev.wrapped_deg(got, drawn + math.radians(roll)) > 5.0
+
+
+def test_visible_streaks_are_counted_against_a_dry_twin_of_the_same_scene() -> None:
+    """The twin draws everything but the streaks: the same street, traffic, noise and
+    codec; what differs is the rain, and only where the streaks are bright enough."""
+    case = sample_case("tuning", 1, condition="moderate", camera="wind", frames=4)
+    params = replace(case.params, jpeg_quality=None, sensor_noise=0.0)
+    case = replace(case, h264_crf=None, params=params)
+    dry = ev._dry_twin(case)
+    assert ev._dry_twin(dry) is not None and dry.params.rain.count == 0
+    assert (
+        ev._dry_twin(sample_case("tuning", 0, condition="clear", camera="static", frames=6)) is None
+    )
+    for wet, twin in zip(case_frames(case), case_frames(dry), strict=True):
+        assert wet.precipitation and wet.streaks.any()
+        # away from the streaks the two renders are the same image, but for the faint parts
+        # of streaks (under 3 grey levels, not in the mask) and the shake's interpolation
+        near = cv2.dilate(wet.streaks.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+        far = np.abs(wet.gray.astype(int) - twin.gray)[~near]
+        assert far.max() <= 3 and np.mean(far > 0) < 0.2
+        n = ev.visible_streaks(wet.gray, twin.gray, wet.streaks)
+        assert 20 <= n <= 2 * case.params.rain.count, n
+        # the streaks are faint: a margin far above their brightness leaves none
+        assert ev.visible_streaks(wet.gray, twin.gray, wet.streaks, c=250) == 0
+        assert ev.visible_streaks(twin.gray, twin.gray, wet.streaks) == 0
+    noisy = replace(case, params=replace(case.params, sensor_noise=4.0))
+    assert ev.visible_margin(noisy) == pytest.approx(12.0)  # 3 sigma of the sensor noise
+    assert ev.visible_margin(case) == pytest.approx(3.0)  # eq. 8's c
