@@ -73,8 +73,8 @@ bench: install
 	$(BIN)/python bench/bench_zenoh_sites.py --sites 200 --seconds 20
 
 # The scene-family benchmark: the detector on randomised scenes of a tuning and an evaluation
-# split, scored against the targets of docs/figures.md ("Scene-family benchmark"); a few
-# minutes on 2 cores, and it says how long it took.
+# split, scored against the targets of docs/figures.md ("Scene-family benchmark"); about
+# 20 minutes on 2 cores (each rain scene is rendered twice), and it says how long it took.
 eval: install
 	$(BIN)/python bench/eval_scenes.py
 

@@ -61,6 +61,13 @@ class SegmentationParams:
     #: they agree at 240 rows and below and at 360; "length" asks 3 pixels at 270 rows (2
     #: with "area"), 6 at 720 (9) and 9 at 1080 (21) (docs/method.md, departure 15).
     min_area_scaling: Literal["length", "area"] = "area"
+    #: How ``max_area`` scales with the frame: "streak" (default), the larger of the area law
+    #: and the length law, or "area", the paper's bound scaled with the frame's area. A
+    #: streak is about a pixel wide at any resolution, so its area grows with the height
+    #: only: below the reference height the area law rejected the long streaks of a 240-row
+    #: frame (12.5 pixels at most; "streak" allows 25). Above it both laws give the area's
+    #: (docs/method.md, departure 16).
+    max_area_scaling: Literal["streak", "area"] = "streak"
     #: Beyond the paper: whatever the resolution, a blob of fewer pixels has no orientation to
     #: vote with (one pixel's second moments are isotropic; two give 0, 45 or 90 degrees).
     #: 0 keeps the scaled ``min_area`` alone.
@@ -81,6 +88,11 @@ class SegmentationParams:
             self.min_area_scaling in ("length", "area"),
             "min_area_scaling",
             'must be "length" or "area"',
+        )
+        _check(
+            self.max_area_scaling in ("streak", "area"),
+            "max_area_scaling",
+            'must be "streak" or "area"',
         )
         _check(0 <= self.min_area_px <= self.max_area, "min_area_px", "must be in [0, max_area]")
         _check(0 < self.background_rate <= 1, "background_rate", "must be in (0, 1]")

@@ -363,7 +363,10 @@ class HosDetector:
         # (SegmentationParams.min_area_scaling; docs/method.md, departure 15).
         min_scale = at if sp.min_area_scaling == "length" else at * at
         min_area = max(sp.min_area * min_scale, sp.min_area_px)
-        max_area = sp.max_area * at * at
+        # the upper one with the area, or with the height where that allows more: a long
+        # streak in a frame under 480 rows (max_area_scaling; docs/method.md, departure 16)
+        max_scale = max(at, at * at) if sp.max_area_scaling == "streak" else at * at
+        max_area = sp.max_area * max_scale
 
         # 3. blobs, size rule, structure rule
         blobs = find_blobs_sparse(

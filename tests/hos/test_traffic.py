@@ -100,8 +100,10 @@ def test_rain_streaks_are_never_traffic_and_car_fragments_are_on_the_road() -> N
     classes = np.concatenate([c[1:] for c, _ in _classes(rainy, range(80, 140))])
     voting = np.isin(classes, (BlobClass.RAIN, BlobClass.NOISE, BlobClass.TRAFFIC))
     assert voting.sum() > 10_000
-    # 0.9 % here (900 bright streaks a frame): where crossing streaks fill a 2 x 2 block
-    assert (classes == BlobClass.TRAFFIC).sum() / voting.sum() < 0.01
+    # 1.0 % here (900 bright streaks a frame): where crossing streaks fill a 2 x 2 block (0.9 %
+    # before the size rule's upper bound scaled like a streak, departure 16: the larger
+    # crossings that now vote are those most often next to another)
+    assert (classes == BlobClass.TRAFFIC).sum() / voting.sum() < 0.015
 
     traffic = Scene(640, 360, seed=22, params=SceneParams(cars=6, pedestrians=4))
     ys = []
