@@ -1,0 +1,148 @@
+"""The detector on real video clips, with no region of interest: how much of each clip it
+judged and on how much of that it said rain (docs/method.md, "Real clips").
+
+    .venv/bin/python bench/eval_clips.py CLIP [CLIP ...] [--set SECTION.KEY=VALUE] [--markdown]
+
+Real rain video from fixed cameras is rarely redistributable, so no clip ships with the
+repository: point this at your own (the shared fixtures' clear clips work too). Each clip is
+read with OpenCV and given to the detector frame by frame at its own frame rate; the first
+90 frames (the warm-up and the first dwell) are not counted. "judged" is the share of the
+counted frames whose ``state`` is ok; "rain" is the share of the judged frames said rain;
+"episodes" counts the runs of rain and "longest" the longest, in frames.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections import Counter
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import cv2
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from eval_scenes import SETTLE, detector_params
+
+from hos import HosDetector, State
+
+
+@dataclass
+class ClipResult:
+    """What the detector said over one clip."""
+
+    name: str
+    size: tuple[int, int] = (0, 0)
+    fps: float = 0.0
+    frames: int = 0
+    states: Counter = field(default_factory=Counter)
+    rain: int = 0
+    episodes: int = 0
+    longest: int = 0
+
+    @property
+    def counted(self) -> int:
+        return sum(self.states.values())
+
+    @property
+    def judged(self) -> int:
+        return self.states[State.OK]
+
+
+def evaluate(path: Path, overrides: tuple[str, ...] = (), max_frames: int = 0) -> ClipResult:
+    """Run the detector over the clip at ``path``; raises OSError when it cannot be read."""
+    cap = cv2.VideoCapture(str(path))
+    if not cap.isOpened():
+        raise OSError(f"{path}: not a video OpenCV can read")
+    fps = cap.get(cv2.CAP_PROP_FPS)
+    fps = fps if 1.0 <= fps <= 240.0 else 25.0  # some headers carry nonsense
+    res = ClipResult(path.name, fps=fps)
+    det = HosDetector(detector_params(overrides))
+    run = 0
+    try:
+        while not max_frames or res.frames < max_frames:
+            ok, frame = cap.read()
+            if not ok:
+                break
+            gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
+            res.size = (gray.shape[1], gray.shape[0])
+            r = det.process(gray, res.frames / fps)
+            res.frames += 1
+            if res.frames <= SETTLE:
+                continue
+            res.states[str(r.state)] += 1
+            said = bool(r.rain) and r.state == State.OK
+            res.rain += said
+            run = run + 1 if said else 0
+            res.episodes += run == 1
+            res.longest = max(res.longest, run)
+    finally:
+        cap.release()
+    if res.frames == 0:
+        raise OSError(f"{path}: no frame could be decoded")
+    return res
+
+
+HEADER = ["clip", "size", "fps", "frames", "judged %", "rain %", "episodes", "longest", "states"]
+
+
+def row(r: ClipResult) -> list[str]:
+    judged = 100 * r.judged / r.counted if r.counted else 0.0
+    rain = f"{100 * r.rain / r.judged:.1f}" if r.judged else "-"
+    states = ", ".join(f"{k} {v}" for k, v in r.states.most_common())
+    return [
+        r.name,
+        f"{r.size[0]}x{r.size[1]}",
+        f"{r.fps:.1f}",
+        str(r.frames),
+        f"{judged:.0f}",
+        rain,
+        str(r.episodes),
+        str(r.longest),
+        states or f"shorter than the {SETTLE}-frame warm-up",
+    ]
+
+
+def render(results: list[ClipResult], *, markdown: bool) -> str:
+    rows = [row(r) for r in results]
+    if markdown:
+        lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
+        return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(HEADER)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(HEADER, widths, strict=True))]
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("clips", nargs="+", type=Path, metavar="CLIP")
+    ap.add_argument("--markdown", action="store_true")
+    ap.add_argument("--max-frames", type=int, default=0, help="stop each clip after N frames")
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="a detector parameter other than the default, e.g. histogram.dm=0.3",
+    )
+    args = ap.parse_args(argv)
+    started = time.perf_counter()
+    results, failed = [], 0
+    for path in args.clips:
+        try:
+            results.append(evaluate(path, tuple(args.set), args.max_frames))
+        except OSError as exc:
+            print(f"eval_clips: {exc}", file=sys.stderr)
+            failed += 1
+    if results:
+        print(render(results, markdown=args.markdown))
+    print(f"{len(results)} clips in {time.perf_counter() - started:.0f} s", file=sys.stderr)
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
