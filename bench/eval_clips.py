@@ -25,7 +25,7 @@ import cv2
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from eval_scenes import SETTLE, detector_params
+from eval_scenes import SETTLE, add_set_option, detector_params, format_table
 
 from hos import HosDetector, State
 
@@ -106,29 +106,12 @@ def row(r: ClipResult) -> list[str]:
     ]
 
 
-def render(results: list[ClipResult], *, markdown: bool) -> str:
-    rows = [row(r) for r in results]
-    if markdown:
-        lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
-        return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
-    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(HEADER)]
-    lines = ["  ".join(h.ljust(w) for h, w in zip(HEADER, widths, strict=True))]
-    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
-    return "\n".join(lines)
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("clips", nargs="+", type=Path, metavar="CLIP")
     ap.add_argument("--markdown", action="store_true")
     ap.add_argument("--max-frames", type=int, default=0, help="stop each clip after N frames")
-    ap.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="SECTION.KEY=VALUE",
-        help="a detector parameter other than the default, e.g. histogram.dm=0.3",
-    )
+    add_set_option(ap)
     args = ap.parse_args(argv)
     started = time.perf_counter()
     results, failed = [], 0
@@ -139,7 +122,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"eval_clips: {exc}", file=sys.stderr)
             failed += 1
     if results:
-        print(render(results, markdown=args.markdown))
+        print(format_table(HEADER, [row(r) for r in results], markdown=args.markdown))
     print(f"{len(results)} clips in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if failed else 0
 

@@ -185,6 +185,9 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
     return res
 
 
+_SEG = DetectorParams().segmentation  # the defaults that define "visible"
+
+
 def _dry_twin(case: SceneCase) -> SceneCase | None:
     """``case`` with no streak or flake drawn and all else the same (the same draws of every
     other random stream, the road as wet), or None when it has no precipitation."""
@@ -201,8 +204,7 @@ def visible_margin(case: SceneCase) -> float:
     eq. 8's c (3 grey levels), or D = 3 standard deviations of the scene's sensor noise, the
     paper's background test (section 2.1), when that is more. Below it, no per-pixel test
     against a background tells the streak from the noise."""
-    seg = DetectorParams().segmentation
-    return max(seg.photometric_c, seg.mog_d * case.params.sensor_noise)
+    return max(_SEG.photometric_c, _SEG.mog_d * case.params.sensor_noise)
 
 
 def visible_streaks(gray: np.ndarray, dry: np.ndarray, streaks: np.ndarray, c: float = 3.0) -> int:
@@ -215,7 +217,7 @@ def visible_streaks(gray: np.ndarray, dry: np.ndarray, streaks: np.ndarray, c: f
     brighter = ((gray.astype(np.int16) - dry) >= c) & streaks
     _, _, stats, _ = cv2.connectedComponentsWithStats(brighter.view(np.uint8), connectivity=8)
     area = stats[1:, cv2.CC_STAT_AREA]
-    return int(np.count_nonzero(area >= DetectorParams().segmentation.min_area_px))
+    return int(np.count_nonzero(area >= _SEG.min_area_px))
 
 
 def spearman(x: list[float], y: list[float]) -> float:
@@ -357,18 +359,33 @@ def _patch_results(results: list[CaseResult]) -> None:
             r.latency_on = r.latency_off = None
 
 
+def format_table(header: list[str], rows: list[list[str]], *, markdown: bool) -> str:
+    """``rows`` under ``header``: a Markdown table, or columns padded with spaces."""
+    if markdown:
+        lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+        return "\n".join(lines + ["| " + " | ".join(r) + " |" for r in rows])
+    widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(header)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(header, widths, strict=True))]
+    lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
+    return "\n".join(lines)
+
+
+def add_set_option(ap: argparse.ArgumentParser) -> None:
+    """``--set SECTION.KEY=VALUE`` (repeatable): detector parameters other than the defaults,
+    for :func:`detector_params`."""
+    ap.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="SECTION.KEY=VALUE",
+        help="a detector parameter other than the default, e.g. decision.measurement_blobs=0",
+    )
+
+
 def render(split: str, results: list[CaseResult], seconds: float, *, markdown: bool) -> str:
     rows, totals = table(results)
     lines = [f"## {split} split: {len(results)} scenes, {seconds:.0f} s"]
-    if markdown:
-        lines.append("| " + " | ".join(HEADER) + " |")
-        lines.append("|" + "---|" * len(HEADER))
-        lines += ["| " + " | ".join(row) + " |" for row in rows]
-    else:
-        widths = [max(len(h), *(len(r[k]) for r in rows)) for k, h in enumerate(HEADER)]
-        lines.append("  ".join(h.ljust(w) for h, w in zip(HEADER, widths, strict=True)))
-        lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)) for r in rows]
-    lines.append("")
+    lines += [format_table(HEADER, rows, markdown=markdown), ""]
     for key, value in totals.items():
         target = TARGETS.get(key)
         verdict = ""
@@ -387,13 +404,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, default=375, help="frames per scene")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown", action="store_true")
-    ap.add_argument(
-        "--set",
-        action="append",
-        default=[],
-        metavar="SECTION.KEY=VALUE",
-        help="a detector parameter other than the default, e.g. decision.measurement_blobs=0",
-    )
+    add_set_option(ap)
     args = ap.parse_args(argv)
     splits = SPLITS if args.split == "both" else (args.split,)
     total = time.perf_counter()

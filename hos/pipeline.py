@@ -393,10 +393,12 @@ class HosDetector:
             self._rate.update(candidates, candidate_fraction)
         sized = size_rule(mom.area, min_area=min_area, max_area=max_area)
         sized[0] = False
+        # the traffic map's cell of every blob: for the map, and for the pooled fit's spread
+        blob_cells = self._traffic.cells(mom.x0, mom.y0)
         if rob.traffic:
             # beyond the paper: where vehicles, pedestrians and spray are or often pass
             self._traffic.update(seg.foreground, learn=learn and state == State.OK)
-            in_traffic = self._traffic.lookup(mom.x0, mom.y0)
+            in_traffic = self._traffic.covers(blob_cells)
             in_traffic[0] = False
         else:
             in_traffic = np.zeros(blobs.n_labels, dtype=bool)
@@ -421,14 +423,13 @@ class HosDetector:
         S = float(hist.sum())
         weights = mom.a[idx]
         dp = p.decision
-        cells = self._traffic.cells(mom.x0[idx], mom.y0[idx])  # where the blobs are, for pooling
         fitted, n_pooled, pooled, n_eff, places = self._pooled_hos(
             hist,
             int(idx.size),
             float(weights.sum()),
             float(np.sum(weights * weights)),
             hold,
-            cells,
+            blob_cells[idx],
         )
         if idx.size:
             mp = p.mixture

@@ -142,6 +142,11 @@ class TrafficMap:
         gx = np.clip(gx, 0, self.grid[1] - 1)
         return gy * self.grid[1] + gx
 
+    def covers(self, cells: np.ndarray) -> np.ndarray:
+        """(N,) bool: whether each cell (flat indices from :meth:`cells`) is a traffic cell of
+        the last frame."""
+        return self.mask.reshape(-1)[cells]
+
     def lookup(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """(N,) bool: whether each point (pixels) lies in a traffic cell of the last frame."""
-        return self.mask.reshape(-1)[self.cells(x, y)]
+        return self.covers(self.cells(x, y))
