@@ -107,6 +107,14 @@ class MogSegmenter:
 _SQUARE3 = np.ones((3, 3), np.uint8)
 
 
+def translate(image: np.ndarray, dx: float, dy: float) -> np.ndarray:
+    """``image`` moved by (dx, dy) pixels (bilinear, exact for whole pixels; the border
+    repeated), as a new array."""
+    m = np.float32([[1.0, 0.0, dx], [0.0, 1.0, dy]])
+    h, w = image.shape[:2]
+    return cv2.warpAffine(image, m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
+
+
 def neighbourhood_background(background: np.ndarray) -> np.ndarray:
     """The brightest background grey level of each pixel's 3x3 neighbourhood (beyond the paper).
 
@@ -156,6 +164,7 @@ class PhotometricRule:
         *,
         learning_rate: float = -1.0,
         neighbourhood: bool = False,
+        offset: tuple[float, float] = (0.0, 0.0),
     ) -> np.ndarray:
         """Candidate pixels of ``gray``, (N,) intp ascending flat indices; learns the background.
 
@@ -163,7 +172,10 @@ class PhotometricRule:
         relearns a changed scene (the background follows at least as fast), else the
         ``background_rate`` parameter. ``neighbourhood``: compare with the brightest background
         pixel of each 3x3 neighbourhood instead of the pixel's own (a camera off its place by up
-        to a pixel; see :func:`neighbourhood_background`).
+        to a pixel; see :func:`neighbourhood_background`). ``offset``: (dx, dy), where ``gray``
+        is off the background's place by a fraction of a pixel (a camera in the wind, moved
+        back by whole pixels): the background is moved there (bilinear) before the comparison.
+        Resampling the background costs nothing a streak needs: it has none.
         """
         if self._background is None or self._background.shape != gray.shape:
             self._background = gray.astype(np.float32)
@@ -172,6 +184,8 @@ class PhotometricRule:
         c = round(self.params.photometric_c)
         rate = self.params.background_rate if learning_rate < 0 else max(learning_rate, 0.02)
         reference = self._background_u8
+        if offset[0] or offset[1]:
+            reference = translate(reference, offset[0], offset[1])
         if neighbourhood:
             reference = neighbourhood_background(reference)
         if self._compiled:

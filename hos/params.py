@@ -186,6 +186,15 @@ class DecisionParams:
     #: (``robustness.traffic_cell``): streaks land somewhere new in every frame; the parts of
     #: a pedestrian or a light's reflection in a wet road, seen again and again, do not.
     pool_places: float = 0.75
+    #: Beyond the paper: a fit of one frame whose Gaussian is wider than ``spread_sigma``
+    #: (snow, or nothing at all) counts only if its blobs are spread over the view: they
+    #: occupy at least ``spread_places`` times as many cells of a ``spread_grid`` x
+    #: ``spread_grid`` grid over the region of interest as the same number of blobs dropped at
+    #: random would. Flakes fall everywhere; the fragments of a tree's foliage swaying in the
+    #: wind sit in its crown. 0: never.
+    spread_sigma: float = math.radians(20.0)
+    spread_places: float = 0.5
+    spread_grid: int = 4
     #: Beyond the paper: a fit from fewer blobs is a noisier measurement. Its variance is
     #: ``measurement_var * max(1, measurement_blobs / n_eff)``, n_eff the effective number of
     #: blobs of the HOS (their weights' (sum w)^2 / sum w^2); 0 keeps the paper's constant.
@@ -211,6 +220,8 @@ class DecisionParams:
         _check(self.empty_measurement_var >= 0, "empty_measurement_var", "must be >= 0")
         _check(self.pool_frames >= 1, "pool_frames", "must be >= 1")
         _check(0 <= self.pool_places <= 1, "pool_places", "must be in [0, 1]")
+        _check(0 <= self.spread_places <= 1, "spread_places", "must be in [0, 1]")
+        _check(self.spread_grid >= 1, "spread_grid", "must be >= 1")
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
         _check(self.measurement_blobs >= 0, "measurement_blobs", "must be >= 0")
         _check(self.sigma_max > 0, "sigma_max", "must be > 0")
@@ -244,6 +255,12 @@ class RobustnessParams:
     stabilise: bool = True
     #: Smaller offsets are left alone: resampling a compressed frame costs more than it saves.
     stabilise_min_px: float = 0.25
+    #: The frame is translated back by whole pixels (the offset rounded), which moves a
+    #: one-pixel streak without spreading it; what is left, up to half a pixel and the
+    #: estimate's own error, is held out by the 3x3 neighbourhood rule (``shaken_px``). True:
+    #: by the offset's fraction too (bilinear), which halves a thin streak's contrast at half
+    #: a pixel.
+    stabilise_subpixel: bool = False
     motion_frame_px: float = 1.5
     #: A frame offset by more than this is a camera being moved (knocked, re-aimed), not the
     #: wind: ``unstable`` at once.

@@ -38,7 +38,13 @@ import numpy as np
 
 from . import _jit
 from .angles import wrap_diff, wrapped_normal_pdf
-from .background import FrameDiffSegmenter, MogSegmenter, PhotometricRule, mask_to_index
+from .background import (
+    FrameDiffSegmenter,
+    MogSegmenter,
+    PhotometricRule,
+    mask_to_index,
+    translate,
+)
 from .blobs import CandidateRate, blob_mean_rate, find_blobs_sparse, size_rule, structure_rule
 from .histogram import hos_histogram
 from .mixture import fit_mixture
@@ -112,6 +118,9 @@ class Segmented:
     roi: np.ndarray | None
     roi_area: int
     scale: int
+    #: what is left of the camera's offset after ``image`` was moved back by whole pixels,
+    #: (dx, dy) at full resolution: the background of eq. 8 is moved by it
+    residual: tuple[float, float] = (0.0, 0.0)
 
 
 class HosDetector:
@@ -189,6 +198,7 @@ class HosDetector:
             self._roi = None
             self._roi_flat = None
             self._roi_area = h * w
+            self._roi_box = (0, 0, w, h)
         else:
             roi = self._roi_input
             if roi.shape != shape:
@@ -196,6 +206,8 @@ class HosDetector:
             self._roi = roi
             self._roi_flat = roi.reshape(-1) != 0
             self._roi_area = max(cv2.countNonZero(roi), 1)
+            x, y, bw, bh = cv2.boundingRect(roi)
+            self._roi_box = (x, y, max(bw, 1), max(bh, 1))
         self._scale = min(max(w // _REDUCED_WIDTH, 1), _MAX_SCALE)
         self._roi_small = None if self._roi is None else reduce(self._roi, self._scale) > 127
 
@@ -226,8 +238,18 @@ class HosDetector:
             if self._relearn == 0:
                 self._relearn = rob.warmup_frames
             motion_px, shift_x, shift_y = 0.0, 0.0, 0.0
+        residual = (0.0, 0.0)
         if rob.stabilise and rob.stabilise_min_px < motion_px <= rob.motion_frame_px:
-            frame = _translate(frame, -shift_x, -shift_y)
+            if rob.stabilise_subpixel:
+                frame = translate(frame, -shift_x, -shift_y)
+            else:
+                # Whole pixels: moving the frame by a fraction would spread a one-pixel streak
+                # over two pixels at half its contrast. The fraction left is taken by the
+                # background eq. 8 compares with, which has no streak to lose (departure 7).
+                whole_x, whole_y = float(round(shift_x)), float(round(shift_y))
+                if whole_x or whole_y:
+                    frame = translate(frame, -whole_x, -whole_y)
+                residual = (shift_x - whole_x, shift_y - whole_y)
 
         # 2a. the background model
         learning_rate = 0.05 if self._relearn > 0 else -1.0
@@ -255,6 +277,7 @@ class HosDetector:
             roi=self._roi_flat,
             roi_area=self._roi_area,
             scale=self._scale,
+            residual=residual,
         )
 
     def _state(self, brightness: float) -> str:
@@ -351,6 +374,7 @@ class HosDetector:
                 seg.foreground,
                 learning_rate=seg.learning_rate,
                 neighbourhood=self._shaken > 0,
+                offset=seg.residual,
             )
         else:  # the frame difference rule's mask is the candidates
             candidates = mask_to_index(seg.foreground)
@@ -454,6 +478,13 @@ class HosDetector:
             # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
             # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)
             and (pooled == 1 or places >= dp.pool_places * n_pooled)
+            # beyond the paper: a wide population must be spread over the view like snow, not
+            # gathered in one place like a tree's foliage in the wind
+            and (
+                pooled > 1
+                or fit.sigma <= dp.spread_sigma
+                or self._spread(mom.x0[idx], mom.y0[idx]) >= dp.spread_places
+            )
         )
         if hold:
             smoothed = self._smoother.hold()
@@ -601,7 +632,7 @@ class HosDetector:
         exclude = self._fg_small
         dx, dy = translation(self._ref_small, small, exclude=exclude)
         if math.hypot(dx, dy) > 0.5:
-            back = _translate(small, -dx, -dy)
+            back = translate(small, -dx, -dy)
             ddx, ddy = translation(self._ref_small, back, exclude=exclude)
             dx, dy = dx + ddx, dy + ddy
         cv2.accumulateWeighted(small, self._ref_small, 1.0 / rob.reference_frames)
@@ -621,12 +652,29 @@ class HosDetector:
         translation = global_translation_jit if self.compiled else global_translation
         dx, dy = translation(prev, small)
         if math.hypot(dx, dy) > 0.5:
-            ddx, ddy = translation(prev, _translate(small, -dx, -dy))
+            ddx, ddy = translation(prev, translate(small, -dx, -dy))
             dx, dy = dx + ddx, dy + ddy
         self._steps.append((dx, dy))
         sx = sum(d[0] for d in self._steps)
         sy = sum(d[1] for d in self._steps)
         return math.hypot(sx, sy) * scale
+
+    def _spread(self, x: np.ndarray, y: np.ndarray) -> float:
+        """How spread the blobs at (x, y) are over the region of interest (beyond the paper):
+        the cells of a ``decision.spread_grid`` square grid over its bounding box that they
+        occupy, over the number that as many blobs placed at random would occupy on average
+        (``G (1 - (1 - 1/G)^n)``, G cells). About 1 for precipitation, which falls
+        everywhere it can be seen; far less for blobs gathered in one place."""
+        n = x.size
+        if n == 0:
+            return 0.0
+        g = self.params.decision.spread_grid
+        x_lo, y_lo, width, height = self._roi_box
+        col = np.clip(((x - x_lo) * (g / width)).astype(np.intp), 0, g - 1)
+        row = np.clip(((y - y_lo) * (g / height)).astype(np.intp), 0, g - 1)
+        occupied = np.count_nonzero(np.bincount(row * g + col, minlength=g * g))
+        cells = g * g
+        return occupied / (cells * (1.0 - (1.0 - 1.0 / cells) ** n))
 
     def _pooled_hos(
         self, hist: np.ndarray, n: int, w1: float, w2: float, hold: bool, cells: np.ndarray
@@ -694,13 +742,6 @@ class HosDetector:
 _CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 #: Frames over which a pan is measured.
 _PAN_FRAMES = 5
-
-
-def _translate(image: np.ndarray, dx: float, dy: float) -> np.ndarray:
-    """``image`` moved by (dx, dy) pixels (bilinear; the border repeated), as a new array."""
-    m = np.float32([[1.0, 0.0, dx], [0.0, 1.0, dy]])
-    h, w = image.shape[:2]
-    return cv2.warpAffine(image, m, (w, h), flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REPLICATE)
 
 
 def _as_gray(frame: np.ndarray) -> np.ndarray:

@@ -218,6 +218,32 @@ def test_camera_in_the_wind_is_held_still_and_judges(seed, shake):
     assert np.mean([r.rain for r, _ in rain[WARMUP + 25 :]]) >= 0.95
 
 
+def test_a_camera_in_the_wind_is_moved_back_by_whole_pixels_and_keeps_faint_streaks():
+    """Faint streaks (8 grey levels, a pixel wide) under a camera shaken by 0.9 px. Moving the
+    frame back by a fraction of a pixel resamples it: a one-pixel streak spreads over two
+    pixels at half its contrast, under eq. 8's c, and only its fragments are candidates. Moved
+    back by whole pixels (the default), the streaks keep their contrast, and the rest of the
+    offset is the 3x3 neighbourhood rule's (docs/method.md, departure 7). Clear weather stays
+    clear either way."""
+    faint = StreakParams(count=150, length_px=9.0, brightness=8.0, sigma_deg=10.0, mu_deg=85)
+    said, blobs = {}, {}
+    for weather in (faint, None):
+        scene = Scene(
+            W, H, seed=2, params=SceneParams(cars=2, shake_px=0.9, rain=weather, sensor_noise=1.5)
+        )
+        frames = [scene.frame(i)[0] for i in range(220)]
+        for subpixel in (False, True):
+            params = DetectorParams.from_dict({"robustness": {"stabilise_subpixel": subpixel}})
+            det = HosDetector(params)
+            results = [det.process(f, i / 25) for i, f in enumerate(frames)][90:]
+            said[weather is None, subpixel] = np.mean([r.rain for r in results])
+            blobs[weather is None, subpixel] = np.median([r.n_blobs for r in results])
+            assert np.mean([r.state == State.UNSTABLE for r in results]) < 0.15
+    assert said[True, False] == 0 and said[True, True] == 0, said
+    assert said[False, False] > 0.85 and said[False, True] < 0.6, said
+    assert blobs[False, False] > 1.2 * blobs[False, True], blobs
+
+
 def test_camera_being_re_aimed_says_unstable():
     """A camera panned by 2 px a frame for 2.4 s says unstable (not only scene_change) on at
     least 90 % of those frames, and never rain."""
@@ -488,3 +514,38 @@ def test_a_pooled_fit_needs_its_blobs_spread_like_rain():
     assert _few_streaks(0.75, spread=False) == 0.0
     assert _few_streaks(0.75, spread=True) > 0.9
     assert _few_streaks(0.0, spread=False) > 0.3
+
+
+def _wide_population(places: float, *, gathered: bool) -> float:
+    """35 short segments a frame whose orientations spread 30 degrees about the vertical (a
+    snow-like population), over a still textured scene: dropped anywhere in the view (flakes)
+    or anywhere in a 120x100 box (the fragments of a tree's crown swaying in the wind: new
+    places every frame, too sparse for the structure rule). The share of frames said rain."""
+    rng = np.random.default_rng(5)
+    bg = cv2.GaussianBlur(rng.uniform(60, 120, (240, 320)).astype(np.float32), (0, 0), 3)
+    det = HosDetector(DetectorParams.from_dict({"decision": {"spread_places": places}}))
+    said = []
+    for i in range(200):
+        f = bg + rng.normal(0, 1.0, bg.shape).astype(np.float32)
+        if i >= 80:
+            n = 35
+            if gathered:
+                x, y = rng.uniform(20, 140, n), rng.uniform(30, 130, n)
+            else:
+                x, y = rng.uniform(5, 315, n), rng.uniform(5, 235, n)
+            theta = np.radians(rng.normal(90, 30, n))
+            for x0, y0, t in zip(x, y, theta, strict=True):
+                dx, dy = 3 * math.cos(t), 3 * math.sin(t)
+                p, q = (round(x0 - dx), round(y0 - dy)), (round(x0 + dx), round(y0 + dy))
+                cv2.line(f, p, q, 160.0, 1)
+        said.append(det.process(np.clip(f, 0, 255).astype(np.uint8), i / 25).rain)
+    return float(np.mean(said[100:]))
+
+
+def test_a_wide_population_must_be_spread_over_the_view():
+    """``decision.spread_places``: a population as wide as snow's counts only if its blobs are
+    spread over the view; gathered in one part of it (a tree's foliage in the wind), it is no
+    precipitation. Without the rule (0) the gathered one is said rain."""
+    assert _wide_population(0.5, gathered=False) > 0.9
+    assert _wide_population(0.5, gathered=True) == 0.0
+    assert _wide_population(0.0, gathered=True) > 0.5
