@@ -256,10 +256,10 @@ class RobustnessParams:
     #: Smaller offsets are left alone: resampling a compressed frame costs more than it saves.
     stabilise_min_px: float = 0.25
     #: The frame is translated back by whole pixels (the offset rounded), which moves a
-    #: one-pixel streak without spreading it; what is left, up to half a pixel and the
-    #: estimate's own error, is held out by the 3x3 neighbourhood rule (``shaken_px``). True:
-    #: by the offset's fraction too (bilinear), which halves a thin streak's contrast at half
-    #: a pixel.
+    #: one-pixel streak without spreading it; the fraction left (up to half a pixel) moves
+    #: eq. 8's background instead, and the estimate's own error is held out by the 3x3
+    #: neighbourhood rule (``shaken_px``). True: the frame is translated by the offset's
+    #: fraction too (bilinear), which halves a thin streak's contrast at half a pixel.
     stabilise_subpixel: bool = False
     motion_frame_px: float = 1.5
     #: A frame offset by more than this is a camera being moved (knocked, re-aimed), not the

@@ -222,9 +222,9 @@ def test_a_camera_in_the_wind_is_moved_back_by_whole_pixels_and_keeps_faint_stre
     """Faint streaks (8 grey levels, a pixel wide) under a camera shaken by 0.9 px. Moving the
     frame back by a fraction of a pixel resamples it: a one-pixel streak spreads over two
     pixels at half its contrast, under eq. 8's c, and only its fragments are candidates. Moved
-    back by whole pixels (the default), the streaks keep their contrast, and the rest of the
-    offset is the 3x3 neighbourhood rule's (docs/method.md, departure 7). Clear weather stays
-    clear either way."""
+    back by whole pixels (the default), the streaks keep their contrast; the background eq. 8
+    compares with is moved by the fraction left, and the 3x3 neighbourhood rule takes the
+    estimate's error (docs/method.md, departure 7). Clear weather stays clear either way."""
     faint = StreakParams(count=150, length_px=9.0, brightness=8.0, sigma_deg=10.0, mu_deg=85)
     said, blobs = {}, {}
     for weather in (faint, None):
@@ -486,25 +486,36 @@ def test_long_streaks_at_240_rows_pass_the_size_rule_that_scales_like_a_streak()
     assert blobs["streak"] > 4 * blobs["area"], blobs
 
 
-def _few_streaks(places: float, *, spread: bool) -> float:
-    """Three short vertical streaks a frame over a still textured scene, too few to fit alone:
-    at new random places every frame (rain) or at the same places, moving a pixel every four
-    frames (the parts of a distant walker). The share of frames said rain."""
-    rng = np.random.default_rng(3)
+def _said_over_texture(decision: dict, draw, *, seed: int) -> float:
+    """The share of frames said rain (frames 100-199) over a still textured 320x240 scene with
+    sensor noise, where ``draw(frame, i, rng)`` adds blobs to every frame from the 80th on,
+    with ``decision`` parameters set."""
+    rng = np.random.default_rng(seed)
     bg = cv2.GaussianBlur(rng.uniform(60, 120, (240, 320)).astype(np.float32), (0, 0), 3)
-    det = HosDetector(DetectorParams.from_dict({"decision": {"pool_places": places}}))
+    det = HosDetector(DetectorParams.from_dict({"decision": decision}))
     said = []
     for i in range(200):
         f = bg + rng.normal(0, 1.0, bg.shape).astype(np.float32)
         if i >= 80:
-            for k in range(3):
-                if spread:
-                    x, y = rng.integers(10, 310), rng.integers(10, 220)
-                else:
-                    x, y = 100 + i // 4 + 3 * k, 120 + 7 * k
-                f[y : y + 5, x] += 40
+            draw(f, i, rng)
         said.append(det.process(np.clip(f, 0, 255).astype(np.uint8), i / 25).rain)
     return float(np.mean(said[100:]))
+
+
+def _few_streaks(places: float, *, spread: bool) -> float:
+    """Three short vertical streaks a frame over a still textured scene, too few to fit alone:
+    at new random places every frame (rain) or at the same places, moving a pixel every four
+    frames (the parts of a distant walker). The share of frames said rain."""
+
+    def draw(f, i, rng):
+        for k in range(3):
+            if spread:
+                x, y = rng.integers(10, 310), rng.integers(10, 220)
+            else:
+                x, y = 100 + i // 4 + 3 * k, 120 + 7 * k
+            f[y : y + 5, x] += 40
+
+    return _said_over_texture({"pool_places": places}, draw, seed=3)
 
 
 def test_a_pooled_fit_needs_its_blobs_spread_like_rain():
@@ -521,25 +532,20 @@ def _wide_population(places: float, *, gathered: bool) -> float:
     snow-like population), over a still textured scene: dropped anywhere in the view (flakes)
     or anywhere in a 120x100 box (the fragments of a tree's crown swaying in the wind: new
     places every frame, too sparse for the structure rule). The share of frames said rain."""
-    rng = np.random.default_rng(5)
-    bg = cv2.GaussianBlur(rng.uniform(60, 120, (240, 320)).astype(np.float32), (0, 0), 3)
-    det = HosDetector(DetectorParams.from_dict({"decision": {"spread_places": places}}))
-    said = []
-    for i in range(200):
-        f = bg + rng.normal(0, 1.0, bg.shape).astype(np.float32)
-        if i >= 80:
-            n = 35
-            if gathered:
-                x, y = rng.uniform(20, 140, n), rng.uniform(30, 130, n)
-            else:
-                x, y = rng.uniform(5, 315, n), rng.uniform(5, 235, n)
-            theta = np.radians(rng.normal(90, 30, n))
-            for x0, y0, t in zip(x, y, theta, strict=True):
-                dx, dy = 3 * math.cos(t), 3 * math.sin(t)
-                p, q = (round(x0 - dx), round(y0 - dy)), (round(x0 + dx), round(y0 + dy))
-                cv2.line(f, p, q, 160.0, 1)
-        said.append(det.process(np.clip(f, 0, 255).astype(np.uint8), i / 25).rain)
-    return float(np.mean(said[100:]))
+
+    def draw(f, i, rng):
+        n = 35
+        if gathered:
+            x, y = rng.uniform(20, 140, n), rng.uniform(30, 130, n)
+        else:
+            x, y = rng.uniform(5, 315, n), rng.uniform(5, 235, n)
+        theta = np.radians(rng.normal(90, 30, n))
+        for x0, y0, t in zip(x, y, theta, strict=True):
+            dx, dy = 3 * math.cos(t), 3 * math.sin(t)
+            p, q = (round(x0 - dx), round(y0 - dy)), (round(x0 + dx), round(y0 + dy))
+            cv2.line(f, p, q, 160.0, 1)
+
+    return _said_over_texture({"spread_places": places}, draw, seed=5)
 
 
 def test_a_wide_population_must_be_spread_over_the_view():
