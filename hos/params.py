@@ -195,6 +195,10 @@ class DecisionParams:
     spread_sigma: float = math.radians(20.0)
     spread_places: float = 0.5
     spread_grid: int = 4
+    #: Beyond the paper: the limits on sigma (``sigma_max``, ``pool_sigma_max``,
+    #: ``spread_sigma``) apply to the streaks' own spread, the width of their voting kernels
+    #: (eq. 19) taken out of the fitted sigma; False: to the fitted sigma, as before.
+    kernel_corrected: bool = True
     #: Beyond the paper: a fit from fewer blobs is a noisier measurement. Its variance is
     #: ``measurement_var * max(1, measurement_blobs / n_eff)``, n_eff the effective number of
     #: blobs of the HOS (their weights' (sum w)^2 / sum w^2); 0 keeps the paper's constant.

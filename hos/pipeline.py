@@ -85,6 +85,32 @@ def classify_blobs(
     return ratio > s_b
 
 
+def streak_spread(fit: MixtureFit, votes: np.ndarray) -> float:
+    """The spread of the streaks of a fit's Gaussian, its voting kernels taken out (beyond
+    the paper): ``sqrt(sigma^2 - mean d_theta^2)``, radians.
+
+    Eq. 20 draws each blob as a Gaussian of its orientation's uncertainty (eq. 19), so the
+    fitted sigma is the streaks' spread and their kernels' width added in quadrature
+    (:func:`hos.histogram.kernel_variance`). A streak of 3 pixels votes with a kernel of
+    34 degrees: faint rain at a low resolution fits sigma 22-25 degrees while its streaks are
+    parallel. The mean is over the blobs the Gaussian explains (their posterior, eq. 28) among
+    those whose kernel is narrower than the Gaussian itself: a wider vote is spread over the
+    uniform part. ``votes``: (3, P) orientations, uncertainties and weights.
+    """
+    theta, dtheta, weight = votes
+    inside = dtheta < fit.sigma
+    if not np.any(inside):
+        return fit.sigma
+    theta, dtheta, weight = theta[inside], dtheta[inside], weight[inside]
+    gauss = fit.pi * wrapped_normal_pdf(theta, fit.mu, fit.sigma)
+    share = weight * gauss / (gauss + (1.0 - fit.pi) / np.pi)
+    total = float(share.sum())
+    if total <= 0.0:
+        return fit.sigma
+    kernel = float(np.sum(share * dtheta * dtheta)) / total
+    return math.sqrt(max(fit.sigma * fit.sigma - kernel, 0.0))
+
+
 @dataclass(frozen=True)
 class Segmented:
     """What :meth:`HosDetector.segment` hands to :meth:`HosDetector.analyse` for one frame.
@@ -160,7 +186,7 @@ class HosDetector:
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, blobs, sum of weights, sum of squared weights, the blobs'
         # cells), newest first
-        self._pool: deque[tuple[np.ndarray, int, float, float, np.ndarray]] = deque(
+        self._pool: deque[tuple[np.ndarray, int, float, float, np.ndarray, np.ndarray]] = deque(
             maxlen=self.params.decision.pool_frames
         )
         self._last_fit: tuple[float, float, float] | None = None
@@ -447,13 +473,14 @@ class HosDetector:
         S = float(hist.sum())
         weights = mom.a[idx]
         dp = p.decision
-        fitted, n_pooled, pooled, n_eff, places = self._pooled_hos(
+        fitted, n_pooled, pooled, n_eff, places, votes = self._pooled_hos(
             hist,
             int(idx.size),
             float(weights.sum()),
             float(np.sum(weights * weights)),
             hold,
             blob_cells[idx],
+            np.stack((theta, dtheta, weights)),
         )
         if idx.size:
             mp = p.mixture
@@ -470,10 +497,14 @@ class HosDetector:
             fit = MixtureFit(ok=False, reason="no blobs")
 
         # 6. decision
+        spread = fit.sigma
+        if dp.kernel_corrected and fit.ok:
+            # beyond the paper: the streaks' own spread, the voting kernels' width taken out
+            spread = streak_spread(fit, votes)
         plausible = (
             fit.ok
             and fit.gof_ok
-            and fit.sigma <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
+            and spread <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
             and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
             # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
             # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)
@@ -482,7 +513,7 @@ class HosDetector:
             # gathered in one place like a tree's foliage in the wind
             and (
                 pooled > 1
-                or fit.sigma <= dp.spread_sigma
+                or spread <= dp.spread_sigma
                 or self._spread(mom.x0[idx], mom.y0[idx]) >= dp.spread_places
             )
         )
@@ -677,10 +708,17 @@ class HosDetector:
         return occupied / (cells * (1.0 - (1.0 - 1.0 / cells) ** n))
 
     def _pooled_hos(
-        self, hist: np.ndarray, n: int, w1: float, w2: float, hold: bool, cells: np.ndarray
-    ) -> tuple[np.ndarray, int, int, float, int]:
-        """The HOS to fit: ``(histogram, blobs, frames pooled, n_eff, places)`` (beyond the
-        paper).
+        self,
+        hist: np.ndarray,
+        n: int,
+        w1: float,
+        w2: float,
+        hold: bool,
+        cells: np.ndarray,
+        votes: np.ndarray,
+    ) -> tuple[np.ndarray, int, int, float, int, np.ndarray]:
+        """The HOS to fit: ``(histogram, blobs, frames pooled, n_eff, places, votes)``
+        (beyond the paper).
 
         A frame with fewer than ``decision.min_blobs`` blobs is fitted together with the frames
         before it, up to ``decision.pool_frames`` of them (faint rain at a low resolution leaves
@@ -688,27 +726,31 @@ class HosDetector:
         not). ``w1``, ``w2``: sums of the blobs' weights and squared weights, for n_eff, the
         effective number of blobs (sum w)^2 / sum w^2. ``cells``: the cell of each blob
         (the traffic map's grid); ``places`` is the number of distinct cells of the blobs
-        pooled (rain lands somewhere new each frame, a body's parts do not). A held frame
-        empties the pool.
+        pooled (rain lands somewhere new each frame, a body's parts do not). ``votes``:
+        (3, P) the blobs' orientations, uncertainties and weights, returned for the blobs
+        pooled. A held frame empties the pool.
         """
         if hold:
             self._pool.clear()
         else:
-            self._pool.appendleft((hist, n, w1, w2, cells))
+            self._pool.appendleft((hist, n, w1, w2, cells, votes))
         pooled = 1
         places = n
         if 0 < n < self.params.decision.min_blobs and len(self._pool) > 1:
             hist = hist.copy()
             seen = [cells]
-            for other, n_other, o1, o2, c in itertools.islice(self._pool, 1, None):
+            seen_votes = [votes]
+            for other, n_other, o1, o2, c, v in itertools.islice(self._pool, 1, None):
                 if n >= self.params.decision.min_blobs:
                     break
                 hist += other
                 seen.append(c)
+                seen_votes.append(v)
                 n, w1, w2, pooled = n + n_other, w1 + o1, w2 + o2, pooled + 1
             if pooled > 1:
                 places = int(np.unique(np.concatenate(seen)).size)
-        return hist, n, pooled, (w1 * w1 / w2 if w2 > 0 else 0.0), places
+                votes = np.concatenate(seen_votes, axis=1)
+        return hist, n, pooled, (w1 * w1 / w2 if w2 > 0 else 0.0), places, votes
 
     def _remember_foreground(self, foreground: np.ndarray, changed: float) -> None:
         """Where the background model saw motion, on the reduced grid, grown by a reduced pixel:

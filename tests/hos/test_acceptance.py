@@ -555,3 +555,33 @@ def test_a_wide_population_must_be_spread_over_the_view():
     assert _wide_population(0.5, gathered=False) > 0.9
     assert _wide_population(0.5, gathered=True) == 0.0
     assert _wide_population(0.0, gathered=True) > 0.5
+
+
+def _short_streaks(corrected: bool, *, spread_deg: float | None) -> float:
+    """Six 4-pixel segments a frame at random places, their orientations spread by
+    ``spread_deg`` about the vertical (uniform over 180 degrees for None), over a still
+    textured scene: too few to fit alone, pooled over frames. The share of frames said rain."""
+
+    def draw(f, i, rng):
+        n = 6
+        x, y = rng.uniform(10, 310, n), rng.uniform(10, 230, n)
+        if spread_deg is None:
+            theta = rng.uniform(0, math.pi, n)
+        else:
+            theta = np.radians(rng.normal(90, spread_deg, n))
+        for x0, y0, t in zip(x, y, theta, strict=True):
+            dx, dy = 1.5 * math.cos(t), 1.5 * math.sin(t)
+            p, q = (round(x0 - dx), round(y0 - dy)), (round(x0 + dx), round(y0 + dy))
+            cv2.line(f, p, q, 160.0, 1)
+
+    return _said_over_texture({"kernel_corrected": corrected}, draw, seed=1)
+
+
+def test_short_streaks_are_judged_by_their_spread_not_their_votes_width():
+    """``decision.kernel_corrected`` (docs/method.md, departure 18): 4-pixel streaks vote with
+    kernels of about 20 degrees (eq. 19), so 8 degrees of spread fit sigma over the pooled
+    fit's 20-degree limit. With the kernels taken out they are rain on every frame; without,
+    on none. Segments at any orientation stay no rain."""
+    assert _short_streaks(True, spread_deg=8.0) > 0.9
+    assert _short_streaks(False, spread_deg=8.0) == 0.0
+    assert _short_streaks(True, spread_deg=None) == 0.0
