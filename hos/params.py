@@ -53,14 +53,17 @@ class SegmentationParams:
     min_area: int = 4
     max_area: int = 50
     size_reference_height: int = 480
-    #: How ``min_area`` scales. ``"area"`` (the default): with the height squared, as
-    #: ``max_area`` does; at 1080 rows it rejects every blob of fewer than 21 pixels.
-    #: ``"length"`` (beyond the paper): with the height, since a streak is a pixel or two wide
-    #: at any resolution and its area grows as its length: faint short streaks at 720 and
-    #: 1080 rows are seen, and so are more fragments of swaying foliage. With ``min_area_px``
-    #: they agree at 240 rows and below and at 360; "length" asks 3 pixels at 270 rows (2
-    #: with "area"), 6 at 720 (9) and 9 at 1080 (21) (docs/method.md, departure 15).
-    min_area_scaling: Literal["length", "area"] = "area"
+    #: How ``min_area`` scales. ``"area"``: with the height squared, as ``max_area`` does; at
+    #: 1080 rows it rejects every blob of fewer than 21 pixels. ``"length"`` (beyond the
+    #: paper): with the height, since a streak is a pixel or two wide at any resolution and
+    #: its area grows as its length: faint short streaks at 720 and 1080 rows are seen, and so
+    #: are more fragments of swaying foliage and of a shaken view. With ``min_area_px`` they
+    #: agree at 240 rows and below and at 360; "length" asks 3 pixels at 270 rows (2 with
+    #: "area"), 6 at 720 (9) and 9 at 1080 (21). ``"still"`` (the default): the lower of the
+    #: two while the camera stands still, the area law while it is shaken (an offset of
+    #: ``robustness.shaken_px`` or more within ``motion_window_frames``) (docs/method.md,
+    #: departure 15).
+    min_area_scaling: Literal["length", "area", "still"] = "still"
     #: How ``max_area`` scales with the frame: "streak" (default), the larger of the area law
     #: and the length law, or "area", the paper's bound scaled with the frame's area. A
     #: streak is about a pixel wide at any resolution, so its area grows with the height
@@ -85,9 +88,9 @@ class SegmentationParams:
         _check(1 <= self.min_area <= self.max_area, "min_area", "must be >= 1 and <= max_area")
         _check(self.size_reference_height >= 1, "size_reference_height", "must be >= 1")
         _check(
-            self.min_area_scaling in ("length", "area"),
+            self.min_area_scaling in ("length", "area", "still"),
             "min_area_scaling",
-            'must be "length" or "area"',
+            'must be "length", "area" or "still"',
         )
         _check(
             self.max_area_scaling in ("streak", "area"),

@@ -411,7 +411,12 @@ class HosDetector:
         at = h / sp.size_reference_height
         # the bounds scale with the area, or the lower one with the height only
         # (SegmentationParams.min_area_scaling; docs/method.md, departure 15).
-        min_scale = at if sp.min_area_scaling == "length" else at * at
+        if sp.min_area_scaling == "length":
+            min_scale = at
+        elif sp.min_area_scaling == "still" and self._shaken == 0:
+            min_scale = min(at, at * at)  # the lower of the two laws
+        else:
+            min_scale = at * at
         min_area = max(sp.min_area * min_scale, sp.min_area_px)
         # the upper one with the area, or with the height where that allows more: a long
         # streak in a frame under 480 rows (max_area_scaling; docs/method.md, departure 16)

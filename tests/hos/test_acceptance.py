@@ -444,24 +444,42 @@ def test_a_pooled_frame_still_reports_its_own_histogram():
     assert few >= 10
 
 
-def test_short_streaks_at_720_rows_pass_the_size_rule_that_scales_with_the_height():
-    """Drizzle-like streaks (5 px long, 8 grey levels) at 1280x720, with sensor noise: a streak
-    is a pixel or so wide at any resolution, so its area grows as its length. The paper's
-    bounds scaled with the area (the default) ask 9 pixels here and reject nearly all of them;
-    scaled with the height (``segmentation.min_area_scaling = "length"``), 6 pixels let them
-    vote (docs/method.md, departure 15)."""
+def _said_at_720_rows(scalings, *, shake_px: float) -> dict:
+    """Drizzle-like streaks (5 px long, 8 grey levels) at 1280x720, with sensor noise: the
+    share of frames said rain for each ``segmentation.min_area_scaling``."""
     drizzle = StreakParams(count=500, length_px=5.0, brightness=8.0, sigma_deg=12.0, mu_deg=95)
-    scene = Scene(1280, 720, seed=8, params=SceneParams(cars=1, rain=drizzle, sensor_noise=2.0))
+    params = SceneParams(cars=1, rain=drizzle, sensor_noise=2.0, shake_px=shake_px)
+    scene = Scene(1280, 720, seed=8, params=params)
     frames = [scene.frame(i)[0] for i in range(150)]
     said = {}
-    for scaling in ("length", "area"):
+    for scaling in scalings:
         det = HosDetector(DetectorParams.from_dict({"segmentation": {"min_area_scaling": scaling}}))
         results = [det.process(f, i / 25) for i, f in enumerate(frames)]
         said[scaling] = np.mean([r.rain for r in results[90:]])
         if scaling == "length":
             mus = [math.degrees(r.mu_smoothed) for r in results[90:] if r.rain]
             assert abs(np.median(mus) - 95) < 3
-    assert said["length"] > 0.9 and said["area"] < 0.1, said
+    return said
+
+
+def test_short_streaks_at_720_rows_pass_the_size_rule_that_scales_with_the_height():
+    """A streak is a pixel or so wide at any resolution, so its area grows as its length. The
+    paper's bounds scaled with the area ask 9 pixels at 720 rows and reject nearly all of
+    them; scaled with the height (``segmentation.min_area_scaling = "length"``), 6 pixels let
+    them vote; ``"still"`` (the default) does so while the camera stands still
+    (docs/method.md, departure 15)."""
+    said = _said_at_720_rows(("length", "area", "still"), shake_px=0.0)
+    assert said["length"] > 0.9 and said["still"] > 0.9 and said["area"] < 0.1, said
+
+
+def test_a_shaken_camera_at_720_rows_keeps_the_area_law():
+    """``"still"``: a camera in the wind asks the area law's 9 pixels (a shaken view's edge
+    fragments grow with the frame's area, as swaying foliage did at 1080 rows): the same
+    drizzle under a camera shaken by 0.4 px is judged as with the area law (not seen), where
+    the length law sees it."""
+    said = _said_at_720_rows(("area", "still", "length"), shake_px=0.4)
+    assert said["still"] == pytest.approx(said["area"], abs=0.05), said
+    assert said["length"] > 0.9, said  # so the law, not the shake, decides
 
 
 def test_long_streaks_at_240_rows_pass_the_size_rule_that_scales_like_a_streak():
