@@ -91,11 +91,13 @@ def streak_spread(fit: MixtureFit, votes: np.ndarray) -> float:
 
     Eq. 20 draws each blob as a Gaussian of its orientation's uncertainty (eq. 19), so the
     fitted sigma is the streaks' spread and their kernels' width added in quadrature
-    (:func:`hos.histogram.kernel_variance`). A streak of 3 pixels votes with a kernel of
-    34 degrees: faint rain at a low resolution fits sigma 22-25 degrees while its streaks are
-    parallel. The mean is over the blobs the Gaussian explains (their posterior, eq. 28) among
-    those whose kernel is narrower than the Gaussian itself: a wider vote is spread over the
-    uniform part. ``votes``: (3, P) orientations, uncertainties and weights.
+    (:func:`hos.histogram.kernel_variance`). A streak of 4 pixels votes with a kernel of
+    about 20 degrees: parallel faint streaks at a low resolution fit a sigma over the pooled
+    fit's 20-degree limit. The mean is over the blobs the Gaussian explains (their posterior,
+    eq. 28) among those whose kernel is narrower than the Gaussian itself: a wider vote (a
+    blob of 2-3 pixels) is spread over the uniform part by EM and takes nothing from sigma.
+    ``votes``: (3, P) orientations, uncertainties and weights. Returns the fitted sigma when
+    no kernel is narrower than it.
     """
     theta, dtheta, weight = votes
     inside = dtheta < fit.sigma
@@ -185,7 +187,7 @@ class HosDetector:
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, blobs, sum of weights, sum of squared weights, the blobs'
-        # cells), newest first
+        # cells, their votes (orientation, uncertainty, weight)), newest first
         self._pool: deque[tuple[np.ndarray, int, float, float, np.ndarray, np.ndarray]] = deque(
             maxlen=self.params.decision.pool_frames
         )
