@@ -186,9 +186,9 @@ class HosDetector:
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
-        # the last frames' (HOS, blobs, sum of weights, sum of squared weights, the blobs'
-        # cells, their votes (orientation, uncertainty, weight)), newest first
-        self._pool: deque[tuple[np.ndarray, int, float, float, np.ndarray, np.ndarray]] = deque(
+        # the last frames' (HOS, the blobs' cells, their votes: orientation, uncertainty,
+        # weight), newest first
+        self._pool: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(
             maxlen=self.params.decision.pool_frames
         )
         self._last_fit: tuple[float, float, float] | None = None
@@ -478,16 +478,9 @@ class HosDetector:
             dtheta_max=hp.dtheta_max,
         )
         S = float(hist.sum())
-        weights = mom.a[idx]
         dp = p.decision
         fitted, n_pooled, pooled, n_eff, places, votes = self._pooled_hos(
-            hist,
-            int(idx.size),
-            float(weights.sum()),
-            float(np.sum(weights * weights)),
-            hold,
-            blob_cells[idx],
-            np.stack((theta, dtheta, weights)),
+            hist, hold, blob_cells[idx], np.stack((theta, dtheta, mom.a[idx]))
         )
         if idx.size:
             mp = p.mixture
@@ -715,14 +708,7 @@ class HosDetector:
         return occupied / (cells * (1.0 - (1.0 - 1.0 / cells) ** n))
 
     def _pooled_hos(
-        self,
-        hist: np.ndarray,
-        n: int,
-        w1: float,
-        w2: float,
-        hold: bool,
-        cells: np.ndarray,
-        votes: np.ndarray,
+        self, hist: np.ndarray, hold: bool, cells: np.ndarray, votes: np.ndarray
     ) -> tuple[np.ndarray, int, int, float, int, np.ndarray]:
         """The HOS to fit: ``(histogram, blobs, frames pooled, n_eff, places, votes)``
         (beyond the paper).
@@ -730,33 +716,35 @@ class HosDetector:
         A frame with fewer than ``decision.min_blobs`` blobs is fitted together with the frames
         before it, up to ``decision.pool_frames`` of them (faint rain at a low resolution leaves
         5-10 streaks a frame; their orientations agree from frame to frame, those of noise do
-        not). ``w1``, ``w2``: sums of the blobs' weights and squared weights, for n_eff, the
-        effective number of blobs (sum w)^2 / sum w^2. ``cells``: the cell of each blob
-        (the traffic map's grid); ``places`` is the number of distinct cells of the blobs
-        pooled (rain lands somewhere new each frame, a body's parts do not). ``votes``:
-        (3, P) the blobs' orientations, uncertainties and weights, returned for the blobs
-        pooled. A held frame empties the pool.
+        not). ``votes``: (3, P) the blobs' orientations, uncertainties and weights; returned
+        for the blobs pooled, whose weights give n_eff, the effective number of blobs
+        (sum w)^2 / sum w^2. ``cells``: the cell of each blob (the traffic map's grid);
+        ``places`` is the number of distinct cells of the blobs pooled (rain lands somewhere
+        new each frame, a body's parts do not). A held frame empties the pool.
         """
         if hold:
             self._pool.clear()
         else:
-            self._pool.appendleft((hist, n, w1, w2, cells, votes))
+            self._pool.appendleft((hist, cells, votes))
+        n = votes.shape[1]
         pooled = 1
         places = n
         if 0 < n < self.params.decision.min_blobs and len(self._pool) > 1:
             hist = hist.copy()
             seen = [cells]
             seen_votes = [votes]
-            for other, n_other, o1, o2, c, v in itertools.islice(self._pool, 1, None):
+            for other, c, v in itertools.islice(self._pool, 1, None):
                 if n >= self.params.decision.min_blobs:
                     break
                 hist += other
                 seen.append(c)
                 seen_votes.append(v)
-                n, w1, w2, pooled = n + n_other, w1 + o1, w2 + o2, pooled + 1
+                n, pooled = n + v.shape[1], pooled + 1
             if pooled > 1:
                 places = int(np.unique(np.concatenate(seen)).size)
                 votes = np.concatenate(seen_votes, axis=1)
+        weights = votes[2]
+        w1, w2 = float(weights.sum()), float(np.sum(weights * weights))
         return hist, n, pooled, (w1 * w1 / w2 if w2 > 0 else 0.0), places, votes
 
     def _remember_foreground(self, foreground: np.ndarray, changed: float) -> None:

@@ -545,6 +545,15 @@ def test_a_pooled_fit_needs_its_blobs_spread_like_rain():
     assert _few_streaks(0.0, spread=False) > 0.3
 
 
+def _draw_segments(f, x, y, theta, *, half_length: float) -> None:
+    """Bright one-pixel segments (160 grey levels) centred at (x, y), at orientations theta
+    (radians), ``half_length`` pixels each way, drawn into ``f``."""
+    for x0, y0, t in zip(x, y, theta, strict=True):
+        dx, dy = half_length * math.cos(t), half_length * math.sin(t)
+        p, q = (round(x0 - dx), round(y0 - dy)), (round(x0 + dx), round(y0 + dy))
+        cv2.line(f, p, q, 160.0, 1)
+
+
 def _wide_population(places: float, *, gathered: bool) -> float:
     """35 short segments a frame whose orientations spread 30 degrees about the vertical (a
     snow-like population), over a still textured scene: dropped anywhere in the view (flakes)
@@ -557,11 +566,7 @@ def _wide_population(places: float, *, gathered: bool) -> float:
             x, y = rng.uniform(20, 140, n), rng.uniform(30, 130, n)
         else:
             x, y = rng.uniform(5, 315, n), rng.uniform(5, 235, n)
-        theta = np.radians(rng.normal(90, 30, n))
-        for x0, y0, t in zip(x, y, theta, strict=True):
-            dx, dy = 3 * math.cos(t), 3 * math.sin(t)
-            p, q = (round(x0 - dx), round(y0 - dy)), (round(x0 + dx), round(y0 + dy))
-            cv2.line(f, p, q, 160.0, 1)
+        _draw_segments(f, x, y, np.radians(rng.normal(90, 30, n)), half_length=3.0)
 
     return _said_over_texture({"spread_places": places}, draw, seed=5)
 
@@ -587,10 +592,7 @@ def _short_streaks(corrected: bool, *, spread_deg: float | None) -> float:
             theta = rng.uniform(0, math.pi, n)
         else:
             theta = np.radians(rng.normal(90, spread_deg, n))
-        for x0, y0, t in zip(x, y, theta, strict=True):
-            dx, dy = 1.5 * math.cos(t), 1.5 * math.sin(t)
-            p, q = (round(x0 - dx), round(y0 - dy)), (round(x0 + dx), round(y0 + dy))
-            cv2.line(f, p, q, 160.0, 1)
+        _draw_segments(f, x, y, theta, half_length=1.5)
 
     return _said_over_texture({"kernel_corrected": corrected}, draw, seed=1)
 
