@@ -246,6 +246,7 @@ class ZenohPublisher:
         self._session: zenoh.Session | None = None
         self._token: zenoh.LivelinessToken | None = None
         self._queryable: zenoh.Queryable | None = None
+        self._queryable_end: _CallbackEnd | None = None
         self._closed = False
         self._zid: str | None = None
         self._last_error: str | None = None
@@ -279,11 +280,12 @@ class ZenohPublisher:
             self._stop.set()
             thread = self._thread
             session, token, queryable = self._session, self._token, self._queryable
-            self._session = self._token = self._queryable = None
+            end = self._queryable_end
+            self._session = self._token = self._queryable = self._queryable_end = None
         if thread is not None and thread is not threading.current_thread():
             thread.join(join_timeout_s)
         if session is not None:
-            _teardown(session, token, queryable)
+            _teardown(session, token, queryable, end)
             log.info("zenoh session of site %s closed", self.site)
 
     def __enter__(self) -> ZenohPublisher:
@@ -411,25 +413,29 @@ class ZenohPublisher:
     def _install(self, session: zenoh.Session) -> bool:
         """Declare the token and the queryable on a fresh session; True when the loop is done."""
         token = queryable = None
+        end = _CallbackEnd()
         try:
             token = session.liveliness().declare_token(f"{self._prefix}/alive")
-            queryable = session.declare_queryable(f"{self._prefix}/**", self._on_query)
+            queryable = session.declare_queryable(
+                f"{self._prefix}/**", zenoh.handlers.Callback(self._on_query, end)
+            )
             zid = str(session.zid())
         except Exception as exc:
             text = zenoh_error_text(exc)
             log.warning("zenoh declarations failed, reopening: %s", text)
             with self._lock:
                 self._last_error = f"declare: {text}"
-            _teardown(session, token, queryable)
+            _teardown(session, token, queryable, end)
             return False
         with self._lock:
             if not self._closed:
                 self._session, self._token, self._queryable = session, token, queryable
+                self._queryable_end = end
                 self._zid = zid
                 self._counts["opens"] += 1
                 session = None
         if session is not None:  # close() came while we were opening
-            _teardown(session, token, queryable)
+            _teardown(session, token, queryable, end)
             return True
         log.info("zenoh session %s open for site %s", zid, self.site)
         return True
@@ -451,12 +457,40 @@ class ZenohPublisher:
             query.drop()
 
 
+class _CallbackEnd:
+    """The drop of a Zenoh callback handler: zenoh-python runs a Python callback on a thread of
+    its own ("pyo3-closure") and calls the drop there last, after the undeclaration returned.
+    :meth:`join` waits for that thread to end, so that a stopping daemon leaves no thread of
+    Zenoh's running Python code while the process exits."""
+
+    def __init__(self) -> None:
+        self._dropped = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def __call__(self) -> None:
+        self._thread = threading.current_thread()
+        self._dropped.set()
+
+    def join(self, timeout_s: float) -> None:
+        """Wait up to ``timeout_s`` for the drop, then as long again for its thread."""
+        if not self._dropped.wait(timeout_s):
+            log.debug("zenoh callback not dropped within %g s", timeout_s)
+            return
+        thread = self._thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout_s)
+
+
 def _teardown(
     session: zenoh.Session,
     token: zenoh.LivelinessToken | None,
     queryable: zenoh.Queryable | None,
+    end: _CallbackEnd | None = None,
+    *,
+    join_timeout_s: float = 2.0,
 ) -> None:
-    """Undeclare then close, each step on its own so one failure does not skip the rest."""
+    """Undeclare then close, each step on its own so one failure does not skip the rest; then
+    wait for the queryable's callback thread to end (``end``)."""
     for step in (
         token.undeclare if token is not None else None,
         queryable.undeclare if queryable is not None else None,
@@ -468,6 +502,8 @@ def _teardown(
             step()
         except Exception as exc:
             log.debug("zenoh teardown step failed: %s", zenoh_error_text(exc))
+    if queryable is not None and end is not None:
+        end.join(join_timeout_s)
 
 
 class MemoryPublisher:

@@ -228,6 +228,53 @@ def test_queryable_answers_latest_value_of_each_key(router):
     assert other_site == []
 
 
+def test_teardown_waits_for_the_callback_thread_that_drops_late():
+    """As zenoh-python does: the undeclaration returns, and the callback's own thread calls
+    the drop later, then ends. The teardown returns only once that thread has ended."""
+    from daemon.transport.publisher import _CallbackEnd, _teardown
+
+    end = _CallbackEnd()
+
+    def late_drop():
+        time.sleep(0.3)
+        end()
+        time.sleep(0.1)
+
+    worker = threading.Thread(target=late_drop, name="fake (pyo3-closure)")
+
+    class Queryable:
+        def undeclare(self):
+            worker.start()
+
+    class Session:
+        def close(self):
+            pass
+
+    _teardown(Session(), None, Queryable(), end)
+    assert not worker.is_alive()
+
+
+@pytest.mark.e2e
+def test_close_waits_for_the_query_callback_thread(router):
+    """zenoh-python runs the queryable's Python callback on a thread of its own, which ends a
+    moment after the undeclaration returns: close() waits for it, so that `weatherd run`
+    leaves no thread behind at exit (tests/daemon/service/test_shutdown.py saw one, once)."""
+
+    def callback_threads():
+        return [t for t in threading.enumerate() if "pyo3-closure" in t.name]
+
+    before = set(callback_threads())
+    with client_publisher("e2e-query-end", router.endpoint) as pub:
+        pub.put("state", {"v": 1})
+        wait_until(lambda: pub.session_open, what="session open")
+        wait_until(
+            lambda: len(query(router.endpoint, "weather/e2e-query-end/**")) == 1,
+            what="queryable reachable",
+        )
+        assert set(callback_threads()) - before, "the callback runs on a thread of its own"
+    assert not set(callback_threads()) - before
+
+
 @pytest.mark.e2e
 def test_liveliness_token_appears_and_disappears_on_close(router, subscriber):
     def alive(kind):
