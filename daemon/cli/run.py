@@ -30,9 +30,11 @@ def _run(args: argparse.Namespace) -> NoReturn:
     # A watchdog timeout is a SIGABRT: the journal then shows where every thread was.
     faulthandler.enable(all_threads=True)
 
-    config = validated_config(args.config)  # exactly what check-config accepts
+    # The handlers come first: a SIGTERM from systemd or a test while the configuration is
+    # still being read is a clean stop too, not a death by signal.
     stop = StopOnSignals()
     try:
+        config = validated_config(args.config)  # exactly what check-config accepts
         status = Daemon(config, stop=stop.event, config_path=args.config).run()
     finally:
         stop.restore()

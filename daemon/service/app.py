@@ -664,7 +664,8 @@ def check_paths(config: Config) -> None:
             )
         )
     checks.append(lambda: InstrumentHub(config.instrument, site=config.site.id, emit=_ignore))
-    checks.append(functools.partial(_calibration, config))
+    if config.calibration.file:  # the online state is only read by run, which warns on it
+        checks.append(functools.partial(load_calibration_file, config.calibration.file))
     if config.web.enabled:
         checks.append(functools.partial(load_secrets, config.web))
     errors = []

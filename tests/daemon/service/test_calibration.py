@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import logging
 import math
 from pathlib import Path
 
@@ -160,3 +161,26 @@ def test_the_daemon_does_not_import_filterpy_or_scipy_stats():
         "print(sorted(m for m in ('filterpy', 'scipy.stats') if m in sys.modules))"
     )
     assert run_python(code, HOS_JIT="0").strip() == "[]"
+
+
+def test_checking_the_configuration_does_not_restore_the_state(tmp_path: Path, caplog) -> None:
+    """The online state is ``run``'s to restore, once, after its signal handlers are in place:
+    ``check_paths`` (run by check-config and before run's start-up) neither reads nor logs
+    it, while it still refuses a bad offline file."""
+    from daemon.config import parse_config
+    from daemon.service.app import check_paths
+
+    state = tmp_path / "calibration.json"
+    OnlineCalibration(CalibrationParams(window_s=W), state_path=state)._save()
+    config = parse_config(
+        {"site": {"id": "s", "state_dir": str(tmp_path)}, "zenoh": {"enabled": False}}
+    )
+    with caplog.at_level(logging.INFO, logger="daemon.service.calibration"):
+        check_paths(config)
+        assert not caplog.records
+        OnlineCalibration(CalibrationParams(window_s=W), state_path=state)
+    assert [r.getMessage().split(" from ")[0] for r in caplog.records] == ["calibration: restored"]
+    bad = tmp_path / "bad.toml"
+    bad.write_text('[calibration]\nmodel = "cubic"\na = 1\n')
+    with pytest.raises(ConfigError, match="model"):
+        check_paths(parse_config({"zenoh": {"enabled": False}, "calibration": {"file": str(bad)}}))
