@@ -253,11 +253,12 @@ class RobustnessParams:
     persistence_floor: float = 0.03
     persistence_ratio: float = 2.5
     #: Camera offset from its learnt position (pixels at full resolution), measured on an image
-    #: reduced to about 240 px wide against a reference that learns over ``reference_frames``,
-    #: leaving out what moved in the last frame. With ``stabilise``, a frame offset by up to
-    #: ``motion_frame_px`` is translated back before the background model sees it (a camera in
-    #: the wind); a frame offset by more carries no rain evidence: its edges are in the
-    #: foreground.
+    #: reduced to about 240 px wide against a reference that learns over ``reference_frames``
+    #: (as fast as the background model while that relearns a view), leaving out what moved
+    #: in the last frame. With ``stabilise``, a frame offset by up to ``motion_frame_px`` is
+    #: translated back before the background model sees it (a camera in the wind: a typical
+    #: sway of a pixel peaks at 2-3 px); a frame offset by more carries no rain evidence: its
+    #: edges are in the foreground.
     reference_frames: int = 100
     stabilise: bool = True
     #: Smaller offsets are left alone: resampling a compressed frame costs more than it saves.
@@ -268,7 +269,7 @@ class RobustnessParams:
     #: neighbourhood rule (``shaken_px``). True: the frame is translated by the offset's
     #: fraction too (bilinear), which halves a thin streak's contrast at half a pixel.
     stabilise_subpixel: bool = False
-    motion_frame_px: float = 1.5
+    motion_frame_px: float = 2.5
     #: A frame offset by more than this is a camera being moved (knocked, re-aimed), not the
     #: wind: ``unstable`` at once.
     motion_far_px: float = 3.0

@@ -67,6 +67,9 @@ _REDUCED_WIDTH = 240  # the image used for brightness, gain and motion is about 
 # little for the motion fit to tell from noise (it then reads 0 and nothing is undone), and
 # 0.38 px of a 480-px one (docs/method.md, departure 7)
 _MAX_SCALE = 4
+#: Learning rate of the background model, and of the motion reference, while they relearn the
+#: view after a scene change or a knock (about 20 frames' memory).
+_RELEARN_RATE = 0.05
 
 
 def classify_blobs(
@@ -280,7 +283,7 @@ class HosDetector:
                 residual = (shift_x - whole_x, shift_y - whole_y)
 
         # 2a. the background model
-        learning_rate = 0.05 if self._relearn > 0 else -1.0
+        learning_rate = _RELEARN_RATE if self._relearn > 0 else -1.0
         self._relearn = max(self._relearn - 1, 0)
         foreground = self._segmenter.model(frame, learning_rate=learning_rate)
         changed = self._segmenter.foreground_fraction
@@ -666,7 +669,10 @@ class HosDetector:
             back = translate(small, -dx, -dy)
             ddx, ddy = translation(self._ref_small, back, exclude=exclude)
             dx, dy = dx + ddx, dy + ddy
-        cv2.accumulateWeighted(small, self._ref_small, 1.0 / rob.reference_frames)
+        # While the background model relearns the view (after a scene change: a knock, lights),
+        # the reference learns as fast as the model: both must describe the same view.
+        rate = _RELEARN_RATE if self._relearn > 0 else 1.0 / rob.reference_frames
+        cv2.accumulateWeighted(small, self._ref_small, rate)
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
 

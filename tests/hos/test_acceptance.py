@@ -195,9 +195,9 @@ def test_clear_weather_stays_clear(case):
 
 
 def test_shaking_camera_says_unstable_rather_than_guess():
-    """Shaken by about 2 px, beyond the wind that ``robustness.motion_frame_px`` (1.5 px)
+    """Shaken by about 3 px, beyond the wind that ``robustness.motion_frame_px`` (2.5 px)
     judges through: unstable, never rain."""
-    res = _run(SceneParams(shake_px=2.0), 200)
+    res = _run(SceneParams(shake_px=3.0), 200)
     states = [r.state for r, _ in res[WARMUP:]]
     assert states.count(State.UNSTABLE) / len(states) > 0.9
     assert not any(r.rain for r, _ in res)
@@ -244,6 +244,37 @@ def test_a_camera_in_the_wind_is_moved_back_by_whole_pixels_and_keeps_faint_stre
     assert blobs[False, False] > 1.2 * blobs[False, True], blobs
 
 
+def _swayed(gray: np.ndarray, i: int, amplitude: float) -> np.ndarray:
+    """``gray`` moved by a wind gust: a sway of ``amplitude`` px at 0.6 Hz (25 fps) along a
+    slanted line, so that both axes carry fractions of a pixel."""
+    d = amplitude * math.sin(2 * math.pi * 0.6 * i / 25)
+    m = np.float32([[1, 0, 0.9 * d], [0, 1, 0.44 * d]])
+    return cv2.warpAffine(gray, m, (W, H), borderMode=cv2.BORDER_REFLECT)
+
+
+def test_a_gust_of_two_pixels_is_judged_through():
+    """The wind sways a camera by up to 2 px (its typical amplitude of a pixel has such
+    peaks): translated back by whole pixels, what is left is within the 3x3 neighbourhood's
+    reach as at 1 px, so every frame is judged, the rain is seen and clear weather stays
+    clear (issue 10: with ``motion_frame_px`` at 1.5 px, the frames of the gust beyond 1.5 px
+    were unstable, up to 17 % of a windy scene's)."""
+    said = {}
+    for weather in (StreakParams(count=300, brightness=30.0), None):
+        scene = Scene(W, H, seed=4, params=SceneParams(cars=2, rain=weather))
+        det = HosDetector()
+        results = [
+            det.process(_swayed(scene.frame(i)[0], i, 2.0 if i >= 90 else 0.0), i / 25)
+            for i in range(300)
+        ]
+        late = results[100:]
+        assert sum(r.state == State.UNSTABLE for r in late) <= 0.01 * len(late), weather
+        said[weather is None] = np.mean([r.rain for r in late])
+        far = [r.motion_px for r in late if r.motion_px > 1.5]
+        assert len(far) > 0.2 * len(late)  # the gust was seen that far off, and judged
+    assert said[False] >= 0.95
+    assert said[True] == 0.0
+
+
 def test_camera_being_re_aimed_says_unstable():
     """A camera panned by 2 px a frame for 2.4 s says unstable (not only scene_change) on at
     least 90 % of those frames, and never rain."""
@@ -267,12 +298,33 @@ def test_camera_being_re_aimed_says_unstable():
     assert not any(rain)
 
 
+@pytest.mark.parametrize("name", ["tuning-121-clear-knock", "tuning-125-clear-knock"])
+def test_a_knocked_camera_says_no_rain_while_it_relearns_its_view(name):
+    """Two knocked cameras of the benchmark's tuning split (320x240, knocks of 1-3 % of the
+    width and 1-4 degrees of roll; sampled with 8 scenes a cell, so not in ``make eval``'s
+    table). The knock is a scene change: the background model relearns the new view, and
+    the reference the camera's offset is measured against must relearn it as fast. Left to
+    learn at its own slow rate, the reference was a blend of both views, read offsets of
+    1-2 px that were not there, and frames moved back by them put edges in the foreground:
+    with ``motion_frame_px`` at 2.5 px these cameras said rain on 8 and 10 clear frames."""
+    from drivers.simulator.families import case_frames, sample_cases
+
+    case = next(c for c in sample_cases("tuning", per_cell=8, frames=375) if c.name == name)
+    det = HosDetector()
+    results = [det.process(f.gray, i / case.fps) for i, f in enumerate(case_frames(case))]
+    assert not any(r.rain for r in results)
+    after = results[case.reaim[1] + 80 :]  # the new view learnt
+    assert all(r.state == State.OK for r in after)
+    assert np.median([r.motion_px for r in after]) < 0.25
+
+
 @pytest.mark.parametrize("rest_frames", [10, 0])
 def test_a_knocked_camera_judges_again_at_its_new_aim(rest_frames):
     """A blow turns the view by 8 px and rolls it by 1.5 degrees in 3 frames: unstable while it
     happens, never rain, and judging the rain again once the new view is learnt (about 10 +
-    60 frames; the reference alone would take over 100). ``rest_frames = 0`` is the control:
-    without learning the new view at once, the camera is still not judging 90 frames on."""
+    60 frames). With ``rest_frames = 0`` the new view is found by the scene change it makes
+    instead, and the motion reference relearns with the background model: judging again as
+    soon (it took over 90 frames while the reference learnt at its own slow rate)."""
     rain = StreakParams(count=350, brightness=40.0)
     scene = Scene(W, H, seed=5, params=SceneParams(cars=2, rain=rain))
     params = DetectorParams.from_dict({"robustness": {"rest_frames": rest_frames}})
@@ -290,12 +342,9 @@ def test_a_knocked_camera_judges_again_at_its_new_aim(rest_frames):
         verdicts.append(r.rain)
     assert states[100:150].count(State.OK) == 50 and all(verdicts[110:150])
     assert all(s == State.UNSTABLE for s in states[150:153])
-    if rest_frames:
-        back = next(i for i in range(153, 300) if states[i] == State.OK)
-        assert back - 153 <= 90
-        assert all(s == State.OK for s in states[back:]) and np.mean(verdicts[back + 10 :]) > 0.9
-    else:
-        assert State.OK not in states[153:243]
+    back = next(i for i in range(153, 300) if states[i] == State.OK)
+    assert back - 153 <= 90
+    assert all(s == State.OK for s in states[back:]) and np.mean(verdicts[back + 10 :]) > 0.9
 
 
 def test_demo_street_has_no_false_rain_in_its_clear_phases():
