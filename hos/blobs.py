@@ -20,6 +20,7 @@ from .moments import BlobMoments, blob_moments
 __all__ = [
     "Blobs",
     "CandidateRate",
+    "blob_change",
     "blob_mean_rate",
     "find_blobs",
     "find_blobs_sparse",
@@ -183,6 +184,36 @@ def blob_mean_rate(blobs: Blobs, rate: CandidateRate) -> np.ndarray:
     total = blobs.rate_sum if blobs.rate_sum is not None else blob_rate_sum(blobs, rate.stored)
     with np.errstate(invalid="ignore", divide="ignore"):
         return total * rate.scale / blobs.moments.area
+
+
+def blob_change(
+    image: np.ndarray,
+    previous: np.ndarray,
+    index: np.ndarray,
+    pixel_labels: np.ndarray,
+    n_labels: int,
+) -> np.ndarray:
+    """Mean absolute change of each blob's pixels since the previous frame, (n_labels,)
+    float64, grey levels (NaN for labels without a pixel).
+
+    A streak is where the drop is during this exposure: the drop was elsewhere during the
+    last one, so the streak's pixels have changed by about its contrast. A blob whose pixels
+    have not changed at all is a copy of the last frame: a video encoder's skipped block,
+    which keeps a streak drawn after the drop has gone (beyond the paper).
+
+    Parameters
+    ----------
+    image, previous : (H, W) uint8, this frame and the last, as the background model saw them
+    index : (N,) int, flat indices of the candidate pixels; pixel_labels : (N,) int, their blob
+    n_labels : number of labels including 0
+    """
+    index = np.asarray(index, dtype=np.intp)
+    labels = np.asarray(pixel_labels, dtype=np.intp)
+    now = image.reshape(-1)[index].astype(np.int16)
+    diff = np.abs(now - previous.reshape(-1)[index])
+    area = np.bincount(labels, minlength=n_labels).astype(np.float64)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.bincount(labels, diff, n_labels) / area
 
 
 def structure_rule(

@@ -291,6 +291,13 @@ class RobustnessParams:
     gain_tolerance: float = 0.03
     #: Mean grey level of the region of interest under which the camera cannot see rain.
     dark_level: float = 20.0
+    #: Beyond the paper: a blob whose pixels changed by less than this mean (grey levels) from
+    #: frame to frame over the last ``stale_frames`` frames is a copy (a video encoder's
+    #: skipped blocks keep a streak for frames after the drop has gone) and does not vote; a
+    #: frame identical to the previous one carries no new evidence and holds the state.
+    #: 0: never.
+    stale_level: float = 1.0
+    stale_frames: int = 2
     #: Fraction of the region of interest in the foreground above which the scene has changed
     #: (lights, a wiper, a moved camera); the background is relearnt quickly.
     scene_change_fraction: float = 0.35
@@ -328,6 +335,8 @@ class RobustnessParams:
         _check(self.motion_frame_px > 0, "motion_frame_px", "must be > 0")
         _check(self.stabilise_min_px >= 0, "stabilise_min_px", "must be >= 0")
         _check(self.motion_far_px > 0, "motion_far_px", "must be > 0")
+        _check(self.stale_level >= 0, "stale_level", "must be >= 0")
+        _check(self.stale_frames >= 1, "stale_frames", "must be >= 1")
         _check(self.shaken_px >= 0, "shaken_px", "must be >= 0")
         _check(self.rest_frames >= 0, "rest_frames", "must be >= 0")
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")

@@ -45,7 +45,14 @@ from .background import (
     mask_to_index,
     translate,
 )
-from .blobs import CandidateRate, blob_mean_rate, find_blobs_sparse, size_rule, structure_rule
+from .blobs import (
+    CandidateRate,
+    blob_change,
+    blob_mean_rate,
+    find_blobs_sparse,
+    size_rule,
+    structure_rule,
+)
 from .histogram import hos_histogram
 from .mixture import fit_mixture
 from .moments import orientation_uncertainty
@@ -188,6 +195,8 @@ class HosDetector:
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
+        # the last frames analysed, newest first: for blobs copied from them (stale_level)
+        self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, the blobs' cells, their votes: orientation, uncertainty,
         # weight), newest first
@@ -444,6 +453,23 @@ class HosDetector:
             floor=rob.persistence_floor,
             ratio=rob.persistence_ratio,
         )
+        # 3b. copies of the last frame (beyond the paper): a video encoder's skipped blocks keep
+        # streaks for frames after the drops have gone; they vote no more than an edge that
+        # recurs in place, and a repeated frame says nothing new at all
+        frames = [seg.image, *self._prev_images]
+        if any(f.shape != shape for f in frames):
+            self._prev_images.clear()
+        repeated = False
+        if rob.stale_level > 0 and len(frames) > rob.stale_frames:
+            repeated = cv2.norm(frames[0], frames[1], cv2.NORM_INF) == 0
+            stale = np.ones(blobs.n_labels, dtype=bool)
+            for now, before in itertools.pairwise(frames):
+                change = blob_change(now, before, blobs.index, blobs.pixel_labels, blobs.n_labels)
+                stale &= change < rob.stale_level  # NaN (no pixel) compares False
+            stale[0] = False
+            structural |= stale
+        self._prev_images.appendleft(seg.image.copy())
+        hold = hold or repeated
         learn = self._rate_frames > rob.warmup_frames // 2 and (
             candidate_fraction <= rob.scene_change_fraction
         )

@@ -553,13 +553,14 @@ def test_long_streaks_at_240_rows_pass_the_size_rule_that_scales_like_a_streak()
     assert blobs["streak"] > 4 * blobs["area"], blobs
 
 
-def _said_over_texture(decision: dict, draw, *, seed: int) -> float:
+def _said_over_texture(decision: dict, draw, *, seed: int, robustness: dict | None = None) -> float:
     """The share of frames said rain (frames 100-199) over a still textured 320x240 scene with
     sensor noise, where ``draw(frame, i, rng)`` adds blobs to every frame from the 80th on,
-    with ``decision`` parameters set."""
+    with ``decision`` (and ``robustness``) parameters set."""
     rng = np.random.default_rng(seed)
     bg = cv2.GaussianBlur(rng.uniform(60, 120, (240, 320)).astype(np.float32), (0, 0), 3)
-    det = HosDetector(DetectorParams.from_dict({"decision": decision}))
+    params = {"decision": decision, "robustness": robustness or {}}
+    det = HosDetector(DetectorParams.from_dict(params))
     said = []
     for i in range(200):
         f = bg + rng.normal(0, 1.0, bg.shape).astype(np.float32)
@@ -569,7 +570,7 @@ def _said_over_texture(decision: dict, draw, *, seed: int) -> float:
     return float(np.mean(said[100:]))
 
 
-def _few_streaks(places: float, *, spread: bool) -> float:
+def _few_streaks(places: float, *, spread: bool, stale_level: float = 1.0) -> float:
     """Three short vertical streaks a frame over a still textured scene, too few to fit alone:
     at new random places every frame (rain) or at the same places, moving a pixel every four
     frames (the parts of a distant walker). The share of frames said rain."""
@@ -582,16 +583,21 @@ def _few_streaks(places: float, *, spread: bool) -> float:
                 x, y = 100 + i // 4 + 3 * k, 120 + 7 * k
             f[y : y + 5, x] += 40
 
-    return _said_over_texture({"pool_places": places}, draw, seed=3)
+    return _said_over_texture(
+        {"pool_places": places}, draw, seed=3, robustness={"stale_level": stale_level}
+    )
 
 
 def test_a_pooled_fit_needs_its_blobs_spread_like_rain():
     """``decision.pool_places``: pooled over four frames, a few parts seen again and again in
     the same cells are no rain, while as few streaks landing somewhere new are; without the
-    rule (0) the parts were rain on about half the frames."""
-    assert _few_streaks(0.75, spread=False) == 0.0
+    rule (0) the parts were rain on about half the frames. The parts stand still for three
+    frames in four, so most are also copies of the last frames (departure 19), which
+    ``stale_level = 0`` turns off: each rule is shown alone."""
+    assert _few_streaks(0.75, spread=False, stale_level=0.0) == 0.0
     assert _few_streaks(0.75, spread=True) > 0.9
-    assert _few_streaks(0.0, spread=False) > 0.3
+    assert _few_streaks(0.0, spread=False, stale_level=0.0) > 0.3
+    assert _few_streaks(0.0, spread=False) == 0.0  # and the copies rule alone too
 
 
 def _draw_segments(f, x, y, theta, *, half_length: float) -> None:
