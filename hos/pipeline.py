@@ -456,9 +456,9 @@ class HosDetector:
         # 3b. copies of the last frame (beyond the paper): a video encoder's skipped blocks keep
         # streaks for frames after the drops have gone; they vote no more than an edge that
         # recurs in place, and a repeated frame says nothing new at all
+        if any(f.shape != shape for f in self._prev_images):
+            self._prev_images.clear()  # the camera changed resolution
         frames = [seg.image, *self._prev_images]
-        if any(f.shape != shape for f in frames):
-            self._prev_images.clear()
         repeated = False
         if rob.stale_level > 0 and len(frames) > rob.stale_frames:
             repeated = cv2.norm(frames[0], frames[1], cv2.NORM_INF) == 0

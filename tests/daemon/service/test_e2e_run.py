@@ -255,6 +255,15 @@ def test_sigkill_loses_at_most_seconds_and_the_next_start_repairs(
     config = write_config(tmp_path / "w.toml", source=f"file:{rain_clip}", recordings=recordings)
     daemon = daemon_factory(config)
     daemon.wait_log("detector started")
+    # Recording for a few seconds, counted from its first flushed chunk of frames (the file
+    # grows past its header): the first frames can take seconds on a loaded machine (CI runs
+    # two test workers on two cores).
+    deadline = time.monotonic() + 60
+    sizes: set[int] = set()
+    while len(sizes - {0}) < 2:
+        assert time.monotonic() < deadline, f"nothing recorded in 60 s: {sizes}"
+        sizes |= {p.stat().st_size for p in recordings.glob("*.mcap.part")}
+        time.sleep(0.05)
     time.sleep(4.0)
     killed_ns = time.time_ns()
     daemon.stop(signal.SIGKILL)
