@@ -77,6 +77,9 @@ _MAX_SCALE = 4
 #: Learning rate of the background model, and of the motion reference, while they relearn the
 #: view after a scene change or a knock (about 20 frames' memory).
 _RELEARN_RATE = 0.05
+#: Frames in a row repeating the one before that hold the verdict (a stream filling in
+#: dropped frames); more is a frozen stream, judged like any frame without fresh streaks.
+_REPEATS_HELD = 25
 
 
 def classify_blobs(
@@ -195,7 +198,9 @@ class HosDetector:
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
-        # the last frames analysed, newest first: for blobs copied from them (stale_level)
+        # the last frames analysed, newest first: for blobs copied from them (stale_level),
+        # and how many frames in a row have repeated the one before
+        self._repeats = 0
         self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, the blobs' cells, their votes: orientation, uncertainty,
@@ -469,7 +474,10 @@ class HosDetector:
             stale[0] = False
             structural |= stale
         self._prev_images.appendleft(seg.image.copy())
-        hold = hold or repeated
+        # ... for a moment only: a stream frozen on one picture shows no fresh streak, and
+        # decays to no precipitation as before
+        self._repeats = self._repeats + 1 if repeated else 0
+        hold = hold or 0 < self._repeats <= _REPEATS_HELD
         learn = self._rate_frames > rob.warmup_frames // 2 and (
             candidate_fraction <= rob.scene_change_fraction
         )

@@ -88,3 +88,15 @@ def test_a_repeated_frame_holds_the_verdict():
     assert all(r.state == State.OK for r in results[120:])
     # every blob is a copy once the frame has been the same twice
     assert all(r.n_blobs == 0 for r in results[152:165])
+
+
+def test_a_frozen_stream_is_not_held_for_ever():
+    """A stream frozen on a rain frame: the verdict holds for a moment (up to 25 repeats), then
+    the frozen picture, which shows no fresh streak, decays to no precipitation."""
+    rain = StreakParams(count=250, brightness=30.0)
+    scene = Scene(W, H, seed=4, params=SceneParams(cars=1, rain=rain))
+    det = HosDetector()
+    frozen = scene.frame(150)[0]
+    said = [det.process(scene.frame(i)[0] if i <= 150 else frozen, i / 25).rain for i in range(215)]
+    assert all(said[120:176])  # 25 repeats held
+    assert not any(said[200:])
