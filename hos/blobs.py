@@ -21,6 +21,7 @@ __all__ = [
     "Blobs",
     "CandidateRate",
     "blob_change",
+    "blob_mean",
     "blob_mean_rate",
     "find_blobs",
     "find_blobs_sparse",
@@ -208,12 +209,17 @@ def blob_change(
     n_labels : number of labels including 0
     """
     index = np.asarray(index, dtype=np.intp)
-    labels = np.asarray(pixel_labels, dtype=np.intp)
     now = image.reshape(-1)[index].astype(np.int16)
-    diff = np.abs(now - previous.reshape(-1)[index])
+    return blob_mean(np.abs(now - previous.reshape(-1)[index]), pixel_labels, n_labels)
+
+
+def blob_mean(values: np.ndarray, pixel_labels: np.ndarray, n_labels: int) -> np.ndarray:
+    """Mean of a per-pixel quantity over each blob, (n_labels,) float64 (NaN for labels
+    without a pixel). ``values`` and ``pixel_labels``: (N,), one per candidate pixel."""
+    labels = np.asarray(pixel_labels, dtype=np.intp)
     area = np.bincount(labels, minlength=n_labels).astype(np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return np.bincount(labels, diff, n_labels) / area
+        return np.bincount(labels, values, n_labels) / area
 
 
 def structure_rule(

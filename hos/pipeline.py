@@ -198,10 +198,9 @@ class HosDetector:
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
-        # the last frames analysed, newest first: for blobs copied from them (stale_level),
-        # and how many frames in a row have repeated the one before
-        self._repeats = 0
+        # the last frames analysed, newest first: for blobs copied from them (stale_level)
         self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
+        self._repeats = 0  # frames in a row that repeated the one before
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, the blobs' cells, their votes: orientation, uncertainty,
         # weight), newest first
@@ -473,7 +472,8 @@ class HosDetector:
                 stale &= change < rob.stale_level  # NaN (no pixel) compares False
             stale[0] = False
             structural |= stale
-        self._prev_images.appendleft(seg.image.copy())
+        if rob.stale_level > 0:  # nothing to keep when the rule is off
+            self._prev_images.appendleft(seg.image.copy())
         # ... for a moment only: a stream frozen on one picture shows no fresh streak, and
         # decays to no precipitation as before
         self._repeats = self._repeats + 1 if repeated else 0

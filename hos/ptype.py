@@ -34,6 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .blobs import blob_mean
+
 __all__ = [
     "RAIN",
     "SNOW",
@@ -149,11 +151,8 @@ def blob_contrast(
     faint (Garg & Nayar). A flake is opaque, white and slow: it is bright. NaN for empty labels.
     """
     index = np.asarray(index, dtype=np.intp)
-    labels = np.asarray(pixel_labels, dtype=np.intp)
     diff = image.reshape(-1)[index].astype(np.float64) - background.reshape(-1)[index]
-    area = np.bincount(labels, minlength=n_labels).astype(np.float64)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.bincount(labels, diff, n_labels) / area
+    return blob_mean(diff, pixel_labels, n_labels)
 
 
 def streak_shape(
