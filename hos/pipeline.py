@@ -69,6 +69,7 @@ if _jit.ENABLED:
 
 __all__ = ["HosDetector", "Segmented", "classify_blobs"]
 
+_GAIN_OUTLIER = 4.0  # grey levels on the reduced image
 _REDUCED_WIDTH = 240  # the image used for brightness, gain and motion is about this wide
 # ... but reduced by at most 4: a wind's 1.5 px at 1920x1080 is 0.19 px of a 240-px image, too
 # little for the motion fit to tell from noise (it then reads 0 and nothing is undone), and
@@ -352,7 +353,12 @@ class HosDetector:
             corrected_small = small * self._gain
         relax = 1.0 / (10.0 * self.params.segmentation.mog_history)
         self._gain = 1.0 + (self._gain - 1.0) * (1.0 - relax)
-        cv2.accumulateWeighted(corrected_small, self._bg_small, 0.05)
+        # Beyond the paper: each pixel's step is clipped to a few grey levels (a Huber running
+        # mean). Rain only brightens: learnt in full, its streaks made the reference brighter
+        # than a frame's typical pixel in heavy rain, and the median ratio read a gain of
+        # 0.5-1 % a frame that was not there. Clipped, a drop moves it by 0.2 grey levels.
+        step = np.clip(corrected_small - self._bg_small, -_GAIN_OUTLIER, _GAIN_OUTLIER)
+        self._bg_small += np.float32(0.05) * step
         if abs(self._gain - 1.0) < 0.003:
             return gray, corrected_small
         return cv2.convertScaleAbs(gray, alpha=self._gain), corrected_small
