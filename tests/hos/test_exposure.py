@@ -16,6 +16,10 @@ from drivers.simulator.families import case_frames, sample_cases
 from hos import DetectorParams, HosDetector
 
 W, H = 320, 240
+#: the benchmark's heavy rain at 320x240 (drivers/simulator/families.py)
+_HEAVY = SceneParams(
+    fps=15.0, cars=1, rain=StreakParams(count=400, brightness=45.0, length_px=16.0)
+)
 _TIGHT = DetectorParams.from_dict({"robustness": {"gain_tolerance": 0.01}})
 
 
@@ -28,18 +32,16 @@ def _run(params: SceneParams, frames: int, detector: DetectorParams | None = Non
 def test_heavy_rain_is_not_taken_for_an_exposure_change():
     """Rain only brightens: a reference that learnt it at full rate was brighter than a
     frame's typical pixel, and the gain crept up by a per cent every few frames."""
-    heavy = SceneParams(fps=15.0, cars=1, rain=StreakParams(count=400, brightness=45.0, length_px=16.0))
-    results = _run(heavy, 240, _TIGHT)
+    results = _run(_HEAVY, 240, _TIGHT)
     gains = np.array([r.gain for r in results[60:]])
     assert np.abs(gains - 1.0).max() < 0.02, gains.round(3)
     assert np.mean([r.rain for r in results[80:]]) > 0.95
 
 
 def test_the_reference_learns_rain_at_full_rate_creeps(monkeypatch):
-    """The control: without the slow learning of outliers the same rain moves the gain."""
+    """The control: without the clipped steps the same rain moves the gain."""
     monkeypatch.setattr(hos.pipeline, "_GAIN_OUTLIER", 1e9)
-    heavy = SceneParams(fps=15.0, cars=1, rain=StreakParams(count=400, brightness=45.0, length_px=16.0))
-    gains = np.array([r.gain for r in _run(heavy, 240, _TIGHT)[60:]])
+    gains = np.array([r.gain for r in _run(_HEAVY, 240, _TIGHT)[60:]])
     assert np.abs(gains - 1.0).max() > 0.03
 
 
@@ -49,7 +51,8 @@ def test_rain_is_judged_through_an_exposure_ramp(tolerance, judged):
     frame 222 and settles 2-3 % off the background: at a 3 % tolerance that remainder was
     left for the background model, 5 grey levels on its bright scene; noise all over the
     frame became candidates, the HOS went flat and the verdict was lost for 80 frames."""
-    case = next(c for c in sample_cases("tuning", per_cell=3, frames=260) if c.name == "tuning-018-light-wind")
+    cases = sample_cases("tuning", per_cell=3, frames=260)
+    case = next(c for c in cases if c.name == "tuning-018-light-wind")
     detector = DetectorParams.from_dict({"robustness": {"gain_tolerance": tolerance}})
     det = HosDetector(detector)
     rain = [det.process(f.gray, i / case.fps).rain for i, f in enumerate(case_frames(case))]
