@@ -177,6 +177,12 @@ class DecisionParams:
     #: as 0 with this variance (sure evidence: rain that stops leaves no blob behind); 0 gives
     #: it ``miss_measurement_var`` like any other frame without a valid fit.
     empty_measurement_var: float = 0.1
+    #: Beyond the paper: a frame with fewer voting blobs than this share of their running
+    #: mean over ``collapse_frames`` frames measures Pi as 0 with ``empty_measurement_var``:
+    #: the shower has stopped, whatever the few blobs left fit (compression and noise
+    #: blobs, pooled, fit narrow Gaussians at Pi 0.3-0.6). 0: never.
+    collapse_ratio: float = 0.1
+    collapse_frames: int = 10
     #: Beyond the paper: a frame with fewer than ``min_blobs`` blobs is fitted with the HOS of
     #: the frames before it added, up to this many frames in all, until ``min_blobs`` are
     #: reached; the fit's variance is multiplied by the frames pooled. 1: never.
@@ -225,6 +231,8 @@ class DecisionParams:
         _check(self.dwell_off_frames >= 1, "dwell_off_frames", "must be >= 1")
         _check(self.miss_measurement_var > 0, "miss_measurement_var", "must be > 0")
         _check(self.empty_measurement_var >= 0, "empty_measurement_var", "must be >= 0")
+        _check(0 <= self.collapse_ratio < 1, "collapse_ratio", "must be in [0, 1)")
+        _check(self.collapse_frames >= 1, "collapse_frames", "must be >= 1")
         _check(self.pool_frames >= 1, "pool_frames", "must be >= 1")
         _check(0 <= self.pool_places <= 1, "pool_places", "must be in [0, 1]")
         _check(0 <= self.spread_places <= 1, "spread_places", "must be in [0, 1]")

@@ -209,6 +209,7 @@ class HosDetector:
             maxlen=self.params.decision.pool_frames
         )
         self._last_fit: tuple[float, float, float] | None = None
+        self._votes_rate = 0.0  # voting blobs a frame, a running mean (collapse_ratio)
         # beyond the paper: rain or snow (hos/ptype.py)
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
 
@@ -560,8 +561,21 @@ class HosDetector:
                 or self._spread(mom.x0[idx], mom.y0[idx]) >= dp.spread_places
             )
         )
+        # Beyond the paper: rain that stops leaves nothing behind. A frame with far fewer
+        # voting blobs than the last frames had is the end of a shower, whatever the few
+        # left (noise, compression, the pool's older frames) fit.
+        collapsed = (
+            dp.collapse_ratio > 0
+            and state == State.OK
+            and not hold
+            and idx.size < dp.collapse_ratio * self._votes_rate
+        )
+        if not hold and state == State.OK:
+            self._votes_rate += (idx.size - self._votes_rate) / dp.collapse_frames
         if hold:
             smoothed = self._smoother.hold()
+        elif collapsed and dp.empty_measurement_var > 0:
+            smoothed = self._smoother.update(None, measurement_var=dp.empty_measurement_var)
         elif state == State.OK and plausible and n_pooled >= dp.min_blobs:
             # Beyond the paper: the variance of a fit grows as its blobs get fewer, and with the
             # number of frames pooled (each frame's blobs count in that many fits).
