@@ -66,8 +66,9 @@ class SceneParams:
     sensor_noise : standard deviation of the Gaussian sensor noise, grey levels, fresh each
         frame; 0: none
     jpeg_quality : if set, each frame goes through a JPEG encode/decode at this quality (1-100)
-    shake_px : camera shake: the whole frame is translated by a smooth random motion (about
-        3 Hz) plus a per-frame jitter, of typical amplitude ``shake_px`` px; 0: still
+    shake_px : camera shake: the street is translated by a smooth random motion (about
+        3 Hz) plus a per-frame jitter, of typical amplitude ``shake_px`` px; 0: still. The
+        precipitation, drawn at random sub-pixel places, is not resampled with it
     darkness : global dimming, 0 (day) to 1 (black): the scene is multiplied by 1 - darkness
     wet_road : how wet the road is while it rains (and for 10 s after), 0 (dry) to 1: vehicles
         throw spray behind their wheels and their lights are mirrored in the road as vertical
@@ -260,6 +261,22 @@ class Scene:
         if p.cars:
             self._draw_cars(img, i)
 
+        # The camera shake moves the street (resampled: a fraction of a pixel spreads its edges
+        # as the sensor would), not the precipitation: a drop falls at a random place in front
+        # of the camera, drawn already at its sub-pixel place (antialiased), so moving its layer
+        # by a fraction of a pixel would blur every streak a second time, by up to half its
+        # contrast on half the frames, which no camera does.
+        dx, dy = self._shake(i)
+        if p.shake_px > 0:
+            m = np.float32([[1, 0, dx], [0, 1, dy]])
+            img = cv2.warpAffine(
+                img,
+                m,
+                (self.width, self.height),
+                flags=cv2.INTER_LINEAR,
+                borderMode=cv2.BORDER_REFLECT,
+            )
+
         rain_k, snow_k = self._intensity(i)
         gain = self._gain(i) * (1.0 - p.darkness)
         g = np.float32(gain)
@@ -290,16 +307,6 @@ class Scene:
         else:
             labels = np.zeros(shape, np.uint8)
 
-        dx, dy = self._shake(i)
-        if p.shake_px > 0:
-            m = np.float32([[1, 0, dx], [0, 1, dy]])
-            size = (self.width, self.height)
-            out = cv2.warpAffine(
-                out, m, size, flags=cv2.INTER_LINEAR, borderMode=cv2.BORDER_REFLECT
-            )
-            labels = cv2.warpAffine(
-                labels, m, size, flags=cv2.INTER_NEAREST, borderMode=cv2.BORDER_REFLECT
-            )
         if p.sensor_noise > 0:
             out = out + np.float32(p.sensor_noise) * self._sensor_noise(i)
         gray = np.clip(out + 0.5, 0, 255).astype(np.uint8)

@@ -334,6 +334,31 @@ def test_shake_moves_the_edges():
     assert 0.2 < np.abs(shakes).mean() < 2.0
 
 
+def test_shake_moves_the_street_and_not_the_streaks():
+    # A drop falls at a random place in front of the camera, drawn antialiased at its sub-pixel
+    # place: moving its layer with the street by a fraction of a pixel would blur every streak
+    # a second time (to half its contrast at half a pixel), which no camera does.
+    rain = StreakParams(count=120, brightness=20.0)
+
+    def fraction(shake):  # how far from whole pixels, along the worse axis
+        return max(abs(v - round(v)) for v in shake)
+
+    # a frame the shake leaves well off whole pixels: a fraction to blur with
+    i = next(i for i in range(50) if fraction(_scene(seed=9, shake_px=0.8).frame(i)[1].shake) > 0.3)
+
+    def streaks(shake_px):
+        wet = _scene(seed=9, rain=rain, shake_px=shake_px).frame(i)
+        dry = _scene(seed=9, shake_px=shake_px).frame(i)[0]
+        return wet[0].astype(int) - dry, wet[1]
+
+    still, still_truth = streaks(0.0)
+    shaken, shaken_truth = streaks(0.8)
+    assert still.max() >= 18
+    np.testing.assert_array_equal(shaken, still)
+    # the truth is the drawn layer against the street under it: rounding moves a few pixels
+    assert np.mean(shaken_truth.mask == still_truth.mask) > 0.999
+
+
 def test_exposure_steps_change_the_mean():
     flat = _scene(seed=7)
     steps = _scene(seed=7, exposure_steps=True, exposure_interval_s=0.4)
