@@ -268,6 +268,14 @@ class RobustnessParams:
     #: sway of a pixel peaks at 2-3 px); a frame offset by more carries no rain evidence: its
     #: edges are in the foreground.
     reference_frames: int = 100
+    #: Beyond the paper: what moves often in place (a tree's crown in the wind, a flag, a
+    #: busy lane) takes no part in the camera-offset fit either. A reduced pixel in the
+    #: background model's foreground on more than ``max(mover_rate, mover_ratio * median)`` of
+    #: the frames (a running mean over ``mover_frames`` frames) is left out; not when that is
+    #: most of the image (a camera being moved, heavy rain everywhere). 0: never.
+    mover_rate: float = 0.15
+    mover_ratio: float = 3.0
+    mover_frames: int = 50
     stabilise: bool = True
     #: Smaller offsets are left alone: resampling a compressed frame costs more than it saves.
     stabilise_min_px: float = 0.25
@@ -342,6 +350,9 @@ class RobustnessParams:
         _check(0 < self.persistence_floor <= 1, "persistence_floor", "must be in (0, 1]")
         _check(self.persistence_ratio > 0, "persistence_ratio", "must be > 0")
         _check(self.reference_frames >= 1, "reference_frames", "must be >= 1")
+        _check(self.mover_rate >= 0, "mover_rate", "must be >= 0")
+        _check(self.mover_ratio >= 0, "mover_ratio", "must be >= 0")
+        _check(self.mover_frames >= 1, "mover_frames", "must be >= 1")
         _check(self.motion_frame_px > 0, "motion_frame_px", "must be > 0")
         _check(self.stabilise_min_px >= 0, "stabilise_min_px", "must be >= 0")
         _check(self.motion_far_px > 0, "motion_far_px", "must be > 0")

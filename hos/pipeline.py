@@ -234,6 +234,8 @@ class HosDetector:
         self._gain = 1.0
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
+        self._fg_rate: np.ndarray | None = None  # how often each reduced pixel was foreground
+        self._movers: np.ndarray | None = None  # where it is often: left out of the motion fit
         self._last_shift: tuple[float, float] | None = None  # the last frame's offset
         self._resting = 0  # frames the camera has stood still off its place
 
@@ -718,6 +720,8 @@ class HosDetector:
             return 0.0, (0.0, 0.0)
         translation = global_translation_jit if self.compiled else global_translation
         exclude = self._fg_small
+        if self._movers is not None and self._movers.shape == small.shape:
+            exclude = self._movers if exclude is None else cv2.bitwise_or(exclude, self._movers)
         dx, dy = translation(self._ref_small, small, exclude=exclude)
         if math.hypot(dx, dy) > 0.5:
             back = translate(small, -dx, -dy)
@@ -815,6 +819,21 @@ class HosDetector:
             return
         small = reduce(foreground, self._scale) > 0.0
         self._fg_small = cv2.dilate(small.view(np.uint8), _CROSS)
+        rob = self.params.robustness
+        if rob.mover_rate <= 0:
+            return
+        # ... and where it moves often (a crown in the wind): a gust sways it by more than the
+        # camera moves, and as the largest textured part of many views it drags the fit
+        # (a pixel or two at 1600x900) unless it is left out (departure 7)
+        now = small.astype(np.float32)
+        if self._fg_rate is None or self._fg_rate.shape != now.shape:
+            self._fg_rate = now
+            self._movers = None
+            return
+        cv2.accumulateWeighted(now, self._fg_rate, 1.0 / rob.mover_frames)
+        level = max(rob.mover_rate, rob.mover_ratio * float(np.median(self._fg_rate)))
+        movers = (self._fg_rate > level).view(np.uint8)
+        self._movers = None if cv2.countNonZero(movers) > movers.size // 2 else movers
 
     def _merge_correction(
         self, area: np.ndarray, accepted: np.ndarray, excluded: np.ndarray, max_area: float
