@@ -720,7 +720,7 @@ class HosDetector:
             return 0.0, (0.0, 0.0)
         translation = global_translation_jit if self.compiled else global_translation
         exclude = self._fg_small
-        if self._movers is not None and self._movers.shape == small.shape:
+        if self._movers is not None:
             exclude = self._movers if exclude is None else cv2.bitwise_or(exclude, self._movers)
         dx, dy = translation(self._ref_small, small, exclude=exclude)
         if math.hypot(dx, dy) > 0.5:
@@ -826,9 +826,8 @@ class HosDetector:
         # camera moves, and as the largest textured part of many views it drags the fit
         # (a pixel or two at 1600x900) unless it is left out (departure 7)
         now = small.astype(np.float32)
-        if self._fg_rate is None or self._fg_rate.shape != now.shape:
+        if self._fg_rate is None:  # a new resolution starts over (_reset_segmentation)
             self._fg_rate = now
-            self._movers = None
             return
         cv2.accumulateWeighted(now, self._fg_rate, 1.0 / rob.mover_frames)
         # the median of a sixteenth of the pixels: a tenth of the cost, the same level
