@@ -5,10 +5,10 @@ judged and on how much of that it said rain (docs/method.md, "Real clips").
 
 Real rain video from fixed cameras is rarely redistributable, so no clip ships with the
 repository: point this at your own (the shared fixtures' clear clips work too). Each clip is
-read with OpenCV and given to the detector frame by frame at its own frame rate; the first
-90 frames (the warm-up and the first dwell) are not counted. "judged" is the share of the
-counted frames whose ``state`` is ok; "rain" is the share of the judged frames said rain;
-"episodes" counts the runs of rain and "longest" the longest, in frames.
+decoded as ``weatherd`` decodes it (PyAV) and given to the detector frame by frame at its own
+frame rate; the first 90 frames (the warm-up and the first dwell) are not counted. "judged" is
+the share of the counted frames whose ``state`` is ok; "rain" is the share of the judged frames
+said rain; "episodes" counts the runs of rain and "longest" the longest, in frames.
 """
 
 from __future__ import annotations
@@ -20,13 +20,14 @@ from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import cv2
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from eval_scenes import SETTLE, add_set_option, detector_params, format_table
 
+from drivers.errors import InputError
+from drivers.video import open_video
 from hos import HosDetector, State
 
 
@@ -53,23 +54,17 @@ class ClipResult:
 
 
 def evaluate(path: Path, overrides: tuple[str, ...] = (), max_frames: int = 0) -> ClipResult:
-    """Run the detector over the clip at ``path``; raises OSError when it cannot be read."""
-    cap = cv2.VideoCapture(str(path))
-    if not cap.isOpened():
-        raise OSError(f"{path}: not a video OpenCV can read")
-    fps = cap.get(cv2.CAP_PROP_FPS)
-    fps = fps if 1.0 <= fps <= 240.0 else 25.0  # some headers carry nonsense
-    res = ClipResult(path.name, fps=fps)
+    """Run the detector over the clip at ``path``, decoded as ``weatherd`` decodes it (PyAV,
+    :func:`drivers.video.open_video`: OpenCV's capture aborts the process on some real files);
+    raises :class:`drivers.errors.InputError` when it cannot be read."""
     det = HosDetector(detector_params(overrides))
     run = 0
-    try:
-        while not max_frames or res.frames < max_frames:
-            ok, frame = cap.read()
-            if not ok:
+    with open_video(path) as reader:
+        res = ClipResult(path.name, fps=reader.fps, size=(reader.width, reader.height))
+        for frame in reader:
+            if max_frames and res.frames >= max_frames:
                 break
-            gray = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame
-            res.size = (gray.shape[1], gray.shape[0])
-            r = det.process(gray, res.frames / fps)
+            r = det.process(frame.gray, frame.t_s)
             res.frames += 1
             if res.frames <= SETTLE:
                 continue
@@ -79,10 +74,6 @@ def evaluate(path: Path, overrides: tuple[str, ...] = (), max_frames: int = 0) -
             run = run + 1 if said else 0
             res.episodes += run == 1
             res.longest = max(res.longest, run)
-    finally:
-        cap.release()
-    if res.frames == 0:
-        raise OSError(f"{path}: no frame could be decoded")
     return res
 
 
@@ -118,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
     for path in args.clips:
         try:
             results.append(evaluate(path, tuple(args.set), args.max_frames))
-        except OSError as exc:
+        except InputError as exc:
             print(f"eval_clips: {exc}", file=sys.stderr)
             failed += 1
     if results:

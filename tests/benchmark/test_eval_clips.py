@@ -35,4 +35,4 @@ def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys
     assert clips.main([str(path), str(bad), "--markdown"]) == 1  # one clip could not be read
     out, err = capsys.readouterr()
     assert out.startswith("| clip | size |") and "| street.avi | 320x240 | 25.0 | 200 |" in out
-    assert "notes.txt: not a video" in err
+    assert "notes.txt: cannot be read as a video" in err
