@@ -183,6 +183,13 @@ class DecisionParams:
     #: blobs, pooled, fit narrow Gaussians at Pi 0.3-0.6). 0: never.
     collapse_ratio: float = 0.1
     collapse_frames: int = 10
+    #: Beyond the paper: while the verdict is rain, a frame with fewer than ``min_blobs``
+    #: blobs is not taken as sure evidence (``empty_measurement_var``) if it has at least this
+    #: share of the voting blobs of the recent frames (their running mean over
+    #: ``collapse_frames``): faint rain at a low resolution leaves 9-19 blobs a frame, so a
+    #: third of its frames have fewer than ``min_blobs``; rain that stops leaves far fewer
+    #: than half. 0: every such frame is sure evidence (before this rule).
+    empty_ratio: float = 0.5
     #: Beyond the paper: a frame with fewer than ``min_blobs`` blobs is fitted with the HOS of
     #: the frames before it added, up to this many frames in all, until ``min_blobs`` are
     #: reached; the fit's variance is multiplied by the frames pooled. 1: never.
@@ -232,6 +239,7 @@ class DecisionParams:
         _check(self.miss_measurement_var > 0, "miss_measurement_var", "must be > 0")
         _check(self.empty_measurement_var >= 0, "empty_measurement_var", "must be >= 0")
         _check(0 <= self.collapse_ratio < 1, "collapse_ratio", "must be in [0, 1)")
+        _check(0 <= self.empty_ratio <= 1, "empty_ratio", "must be in [0, 1]")
         _check(self.collapse_frames >= 1, "collapse_frames", "must be >= 1")
         _check(self.pool_frames >= 1, "pool_frames", "must be >= 1")
         _check(0 <= self.pool_places <= 1, "pool_places", "must be in [0, 1]")

@@ -583,7 +583,16 @@ class HosDetector:
             # number of frames pooled (each frame's blobs count in that many fits).
             var = dp.measurement_var * max(1.0, dp.measurement_blobs / max(n_eff, 1.0)) * pooled
             smoothed = self._smoother.update((fit.pi, fit.mu, fit.sigma), measurement_var=var)
-        elif idx.size < dp.min_blobs and not plausible and dp.empty_measurement_var > 0:
+        elif (
+            idx.size < dp.min_blobs
+            and not plausible
+            and dp.empty_measurement_var > 0
+            and not (
+                dp.empty_ratio > 0
+                and self._smoother.state.rain
+                and idx.size >= dp.empty_ratio * self._votes_rate
+            )
+        ):
             # Beyond the paper: a few blobs that do not even look like a streak population are
             # sure evidence of no rain (rain that stops leaves nothing behind); a failed fit of
             # many blobs, or a few blobs that fit (faint rain at a low resolution), much less.
