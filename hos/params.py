@@ -190,6 +190,16 @@ class DecisionParams:
     #: third of its frames have fewer than ``min_blobs``; rain that stops leaves far fewer
     #: than half. 0: every such frame is sure evidence (before this rule).
     empty_ratio: float = 0.5
+    #: Beyond the paper: precipitation seen by its fall (hos/fall.py): the small blobs of
+    #: consecutive frames paired within ``fall_radius`` pixels (at ``size_reference_height``
+    #: rows, scaled with the height, at least 8), those displaced down the vertical counted
+    #: against those displaced as far up, over ``fall_frames`` judged frames; a z of at least
+    #: ``fall_z`` is precipitation, of the type snow, whatever the HOS says (round flakes and
+    #: specks, which the HOS cannot orient). 0: never. Dry scenes (docs/method.md, 22): 4.8
+    #: at most.
+    fall_z: float = 8.0
+    fall_frames: int = 25
+    fall_radius: float = 9.0
     #: Beyond the paper: a frame with fewer than ``min_blobs`` blobs is fitted with the HOS of
     #: the frames before it added, up to this many frames in all, until ``min_blobs`` are
     #: reached; the fit's variance is multiplied by the frames pooled. 1: never.
@@ -240,6 +250,9 @@ class DecisionParams:
         _check(self.empty_measurement_var >= 0, "empty_measurement_var", "must be >= 0")
         _check(0 <= self.collapse_ratio < 1, "collapse_ratio", "must be in [0, 1)")
         _check(0 <= self.empty_ratio <= 1, "empty_ratio", "must be in [0, 1]")
+        _check(self.fall_z >= 0, "fall_z", "must be >= 0")
+        _check(self.fall_frames >= 1, "fall_frames", "must be >= 1")
+        _check(self.fall_radius > 0, "fall_radius", "must be > 0")
         _check(self.collapse_frames >= 1, "collapse_frames", "must be >= 1")
         _check(self.pool_frames >= 1, "pool_frames", "must be >= 1")
         _check(0 <= self.pool_places <= 1, "pool_places", "must be in [0, 1]")

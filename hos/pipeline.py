@@ -53,12 +53,13 @@ from .blobs import (
     size_rule,
     structure_rule,
 )
+from .fall import FallMeter
 from .histogram import hos_histogram
 from .mixture import fit_mixture
 from .moments import orientation_uncertainty
 from .motion import exposure_gain, global_translation, reduce
 from .params import DetectorParams
-from .ptype import PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
+from .ptype import SNOW, PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .smoothing import ParameterSmoother
 from .traffic import TrafficMap
@@ -212,6 +213,10 @@ class HosDetector:
         self._votes_rate = 0.0  # voting blobs a frame, a running mean (collapse_ratio)
         # beyond the paper: rain or snow (hos/ptype.py)
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
+        # beyond the paper: precipitation seen by its fall (hos/fall.py); made per frame size
+        self._fall: FallMeter | None = None
+        self._falling = False
+        self._fall_pending = 0  # frames in a row whose fall test disagrees with _falling
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -599,7 +604,16 @@ class HosDetector:
             smoothed = self._smoother.update(None, measurement_var=dp.empty_measurement_var)
         else:
             smoothed = self._smoother.update(None)
-        rain = smoothed.rain and state == State.OK
+        # 6b. precipitation seen by its fall (beyond the paper, hos/fall.py): round flakes
+        # and specks that the HOS cannot orient, but that are found lower in the next frame
+        fall_z, fall_px = self._fall_evidence(
+            state == State.OK and not hold,
+            h,
+            mom.x0,
+            mom.y0,
+            (mom.area <= max_area) & ~structural & ~in_traffic,
+        )
+        rain = (smoothed.rain or self._falling) and state == State.OK
 
         # 7. rain pixels
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
@@ -636,6 +650,8 @@ class HosDetector:
             reference_height=self._ptype.params.reference_height,
         )
         vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
+        if self._falling and not smoothed.rain and state == State.OK:
+            vote = SNOW  # seen falling, not as streaks: flakes
         precipitation_type = self._ptype.update(vote, precipitating=rain)
 
         # 8. intensity
@@ -664,6 +680,8 @@ class HosDetector:
             candidate_fraction=candidate_fraction,
             n_structural_blobs=int(np.count_nonzero(sized & structural)),
             n_traffic_blobs=int(np.count_nonzero(traffic)),
+            fall_z=fall_z,
+            fall_px=fall_px,
             labels=blobs.labels,
             blob_class=blob_class,
             pixel_index=blobs.index,
@@ -844,6 +862,35 @@ class HosDetector:
         level = max(rob.mover_rate, rob.mover_ratio * typical)
         movers = (self._fg_rate > level).view(np.uint8)
         self._movers = None if cv2.countNonZero(movers) > movers.size // 2 else movers
+
+    def _fall_evidence(
+        self, judged: bool, height: int, x: np.ndarray, y: np.ndarray, small: np.ndarray
+    ) -> tuple[float, float]:
+        """Step 6b: update the fall meter with this frame's small blobs (label 0 excluded) and
+        the fall verdict (``_falling``, with the decision's dwell); ``(z, fall_px)``. A frame
+        that cannot be judged restarts the meter: the next one is not paired with the last."""
+        dp = self.params.decision
+        if dp.fall_z <= 0:
+            return 0.0, math.nan
+        radius = max(8.0, dp.fall_radius * height / self.params.segmentation.size_reference_height)
+        if self._fall is None or self._fall.radius != radius:
+            self._fall = FallMeter(window=dp.fall_frames, radius=radius, vertical=dp.vertical)
+        if not judged:
+            self._fall.reset()
+            return 0.0, math.nan
+        small = small.copy()
+        small[0] = False
+        z, fall_px = self._fall.update(np.column_stack((x[small], y[small])))
+        # on at fall_z, off under three quarters of it; each held for the dwell frames
+        wants = z >= (0.75 * dp.fall_z if self._falling else dp.fall_z)
+        if wants == self._falling:
+            self._fall_pending = 0
+        else:
+            self._fall_pending += 1
+            dwell = dp.dwell_off_frames if self._falling else dp.dwell_on_frames
+            if self._fall_pending >= dwell:
+                self._falling, self._fall_pending = wants, 0
+        return z, fall_px if self._falling else math.nan
 
     def _merge_correction(
         self, area: np.ndarray, accepted: np.ndarray, excluded: np.ndarray, max_area: float

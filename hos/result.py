@@ -87,6 +87,11 @@ class FrameResult:
     candidate_fraction: float = 0.0
     n_structural_blobs: int = 0
     n_traffic_blobs: int = 0
+    #: Beyond the paper (hos/fall.py): the evidence that what the small blobs show falls (z,
+    #: in standard deviations over ``decision.fall_frames`` frames), and how far it falls,
+    #: pixels a frame (NaN unless it is seen falling).
+    fall_z: float = 0.0
+    fall_px: float = math.nan
     #: (H, W) int32 labels of the candidate mask and (n_labels,) uint8 class of each label.
     #: ``labels`` may be None when the labels are kept sparse, as the candidate pixels' flat
     #: indices ``pixel_index`` (N,) and their labels ``pixel_labels`` (N,): see label_image().
@@ -133,6 +138,8 @@ class FrameResult:
             "brightness": json_float(self.brightness),
             "n_structural_blobs": int(self.n_structural_blobs),
             "n_traffic_blobs": int(self.n_traffic_blobs),
+            "fall_z": json_float(self.fall_z),
+            "fall_px": json_float(self.fall_px),
         }
 
 

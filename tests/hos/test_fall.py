@@ -1,0 +1,157 @@
+"""Precipitation seen by its fall (hos/fall.py; docs/method.md, departure 22).
+
+Round flakes filmed with a short exposure give the HOS nothing to orient. What they still do
+is fall: the tests draw flakes that persist from frame to frame and fall a few pixels a
+frame, and the controls draw the same flakes rising, drifting sideways, or at new places in
+every frame.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from drivers.simulator import Scene, SceneParams
+from hos import DetectorParams, HosDetector
+from hos.fall import FallMeter, fall_pairs
+
+W, H = 320, 240
+FRAMES = 200
+SETTLE = 100
+
+
+# -- the pairs ---------------------------------------------------------------------------------
+def _points(n: int, seed: int = 0) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    return np.column_stack((rng.uniform(0, W, n), rng.uniform(0, H, n)))
+
+
+def test_points_moved_down_pair_down_and_up_pair_up() -> None:
+    p = _points(50)
+    down, up, d_steps, _ = fall_pairs(p, p + np.array([0.3, 3.0]), radius=4)
+    assert down >= 50 and up <= down // 10
+    assert np.count_nonzero(np.abs(d_steps - 3.0) < 1e-9) == 50
+    down, up, _, u_steps = fall_pairs(p, p - np.array([0.3, 3.0]), radius=4)
+    assert up >= 50 and down <= up // 10
+    assert np.count_nonzero(np.abs(u_steps - 3.0) < 1e-9) == 50
+
+
+def test_sideways_and_still_points_pair_neither_way() -> None:
+    p = _points(50)
+    for shift in ((3.0, 0.0), (3.0, 1.0), (0.0, 0.0), (0.2, 1.0)):
+        down, up, _, _ = fall_pairs(p, p + np.array(shift), radius=4)
+        assert down + up <= 5, shift  # the few pairs of two different points only
+
+
+def test_the_cone_follows_the_cameras_vertical() -> None:
+    """A camera rolled by 30 degrees: the fall is along its vertical (60 or 120 degrees)."""
+    p = _points(50)
+    v = math.radians(60.0)
+    step = 4.0 * np.array([math.cos(v), math.sin(v)])
+    down, up, _, _ = fall_pairs(p, p + step, radius=6, vertical=v)
+    assert down >= 50 and up == 0
+    down, _, _, _ = fall_pairs(p, p + step, radius=6, vertical=math.radians(120.0))
+    assert down <= 10
+
+
+def test_unrelated_points_pair_as_often_each_way() -> None:
+    meter = FallMeter(window=25, radius=12)
+    for k in range(60):
+        meter.update(_points(400, seed=k))
+    assert abs(meter.z) < 4.0
+    assert math.isnan(meter.fall_px) or meter.z > 0
+
+
+def test_the_meter_measures_the_fall() -> None:
+    rng = np.random.default_rng(3)
+    p = _points(300)
+    meter = FallMeter(window=25, radius=12)
+    for _ in range(30):
+        p = p + np.column_stack((rng.normal(0, 0.3, len(p)), np.full(len(p), 5.0)))
+        p[:, 1] %= H
+        meter.update(p)
+    assert meter.z > 20
+    assert meter.fall_px == pytest.approx(5.5)  # the 1-pixel bin [5, 6)
+
+
+def test_many_points_are_thinned_and_still_measured() -> None:
+    """Blobs are labelled anew every frame: the thinned share of one frame is not that of
+    the next, and a flake is paired only when both its places are kept."""
+    rng = np.random.default_rng(4)
+    p = np.column_stack((rng.uniform(0, 1920, 6000), rng.uniform(0, 1080, 6000)))
+    meter = FallMeter(window=10, radius=20, max_points=2000)
+    for _ in range(12):
+        p = rng.permutation(p + np.array([0.0, 6.0]))
+        meter.update(p)
+    assert meter.z > 8.0
+    assert meter.fall_px == pytest.approx(6.5)
+
+
+def test_a_window_must_hold_a_frame() -> None:
+    with pytest.raises(ValueError):
+        FallMeter(window=0)
+
+
+# -- the detector ------------------------------------------------------------------------------
+def _flakes(motion: str, *, fall_z: float | None = None) -> list:
+    """Results on a clear street with 250 round flakes (radius 1 px, 50-90 grey levels over the
+    scene) drawn on it; ``motion`` is how they move between frames."""
+    scene = Scene(W, H, seed=21, params=SceneParams(cars=1))
+    rng = np.random.default_rng(5)
+    n = 250
+    x = rng.uniform(0, W, n)
+    y = rng.uniform(0, H, n)
+    speed = rng.uniform(2.0, 4.0, n)
+    level = rng.uniform(50, 90, n)
+    params = DetectorParams()
+    if fall_z is not None:
+        params = DetectorParams.from_dict({"decision": {"fall_z": fall_z}})
+    det = HosDetector(params)
+    out = []
+    for i in range(FRAMES):
+        if motion == "fall":
+            y = (y + speed) % H
+            x = (x + rng.normal(0, 0.3, n)) % W
+        elif motion == "rise":
+            y = (y - speed) % H
+        elif motion == "drift":
+            x = (x + speed) % W
+        else:  # new places every frame
+            x, y = rng.uniform(0, W, n), rng.uniform(0, H, n)
+        gray = scene.frame(i)[0].astype(np.float32)
+        dots = np.zeros_like(gray)
+        for xi, yi, li in zip(x, y, level, strict=True):
+            cv2.circle(dots, (round(xi), round(yi)), 1, float(li), -1)
+        out.append(det.process(np.clip(gray + dots, 0, 255).astype(np.uint8), i / 25))
+    return out
+
+
+@pytest.fixture(scope="module")
+def runs() -> dict[str, list]:
+    return {m: _flakes(m) for m in ("fall", "rise", "drift", "random")}
+
+
+def test_falling_flakes_are_snow(runs) -> None:
+    judged = runs["fall"][SETTLE:]
+    assert all(r.state == "ok" for r in judged)
+    assert np.mean([r.rain for r in judged]) >= 0.98
+    assert np.mean([r.precipitation_type == "snow" for r in judged]) >= 0.95
+    # flakes fall 2-4 px a frame (uniform): the excess peaks within that
+    assert 2.0 <= np.nanmedian([r.fall_px for r in judged]) <= 4.0
+
+
+@pytest.mark.parametrize("motion", ["rise", "drift", "random"])
+def test_flakes_that_do_not_fall_are_not_seen_falling(runs, motion) -> None:
+    judged = runs[motion][SETTLE:]
+    assert max(r.fall_z for r in judged) < DetectorParams().decision.fall_z
+    assert not any(r.rain for r in judged)
+
+
+def test_without_the_fall_the_round_flakes_are_not_seen() -> None:
+    """The control: the HOS alone cannot orient round flakes."""
+    judged = _flakes("fall", fall_z=0.0)[SETTLE:]
+    assert np.mean([r.rain for r in judged]) < 0.1
+    assert all(r.fall_z == 0.0 for r in judged)
