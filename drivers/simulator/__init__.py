@@ -39,6 +39,7 @@ from .precipitation import (
     StreakLayer,
     StreakParams,
     composite,
+    render_falling_snow,
     render_snow,
     render_streaks,
 )
@@ -57,6 +58,7 @@ __all__ = [
     "composite",
     "demo_frames",
     "demo_params",
+    "render_falling_snow",
     "render_snow",
     "render_streaks",
     "write_video",

@@ -54,6 +54,10 @@ _RANGES = {
         "wet_rain": 0.7,
         "wet_clear": 0.3,
         "dense": 0.25,
+        # snow whose flakes persist and fall (SnowParams.fall_px): its chance, and the mean
+        # fall in pixels a frame at 480 rows (scaled with the height)
+        "falling_snow": 0.5,
+        "fall_px": (1.5, 5.0),
         "seed0": 10_000,
     },
     "evaluation": {
@@ -72,6 +76,8 @@ _RANGES = {
         "wet_rain": 0.8,
         "wet_clear": 0.4,
         "dense": 0.35,
+        "falling_snow": 0.6,
+        "fall_px": (1.0, 7.0),
         "seed0": 50_000,
     },
 }
@@ -184,6 +190,13 @@ def sample_case(
         params = replace(params, rain=streaks, schedule=schedule)
     elif condition == "snow":
         flakes = SnowParams()
+        # ... and so does the falling snow (flakes that persist from frame to frame)
+        falling = np.random.default_rng(
+            [seed, CONDITIONS.index(condition), CAMERAS.index(camera), 3]
+        )
+        if falling.random() < float(r["falling_snow"]):
+            lo, hi = r["fall_px"]
+            flakes = replace(flakes, fall_px=float(falling.uniform(lo, hi)) * height / 480)
         params = replace(params, snow=replace(flakes, count=max(1, round(flakes.count * area))))
         density = float(flakes.count)
     reaim = None

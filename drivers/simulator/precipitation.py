@@ -34,6 +34,7 @@ __all__ = [
     "StreakLayer",
     "StreakParams",
     "composite",
+    "render_falling_snow",
     "render_snow",
     "render_streaks",
 ]
@@ -120,6 +121,11 @@ class SnowParams:
     level: float = 225.0
     level_jitter: float = 0.08
     softness_px: float = 0.6
+    #: 0: each frame draws its flakes anew (at random places). > 0: the flakes persist and fall
+    #: this many pixels a frame on average, each at 0.5-1.5 times it (nearer flakes fall
+    #: faster in the image) and drifting sideways by up to a fifth of it, as real snow does
+    #: (:func:`render_falling_snow`).
+    fall_px: float = 0.0
 
     def __post_init__(self) -> None:
         _check_population("SnowParams", self.sigma_deg, self.noise_fraction, self.count)
@@ -130,6 +136,7 @@ class SnowParams:
         _require(0 <= self.level <= 255, "SnowParams.level", "must be in [0, 255]")
         _require(self.level_jitter >= 0, "SnowParams.level_jitter", "must be >= 0")
         _require(self.softness_px >= 0, "SnowParams.softness_px", "must be >= 0")
+        _require(self.fall_px >= 0, "SnowParams.fall_px", "must be >= 0")
 
 
 def _check_population(where: str, sigma_deg: float, noise_fraction: float, count: int) -> None:
@@ -390,10 +397,67 @@ def render_snow(
     n = int(p.count)
     theta, is_noise = _orientations(n, p.mu_deg, p.sigma_deg, p.noise_fraction, rng)
     centers = rng.uniform((-0.5, -0.5), (w - 0.5, h - 0.5), size=(n, 2))
+    return _snow_layer((h, w), p, centers, theta, is_noise, rng)
+
+
+def render_falling_snow(
+    shape: Sequence[int],
+    params: SnowParams,
+    flakes: np.random.Generator | int,
+    i: int,
+    *,
+    pool: int,
+) -> StreakLayer:
+    """Frame ``i`` of snow whose flakes persist from frame to frame and fall.
+
+    ``flakes`` seeds the scene's flakes (the same seed for every frame): each has a place at
+    frame 0, a fall speed of 0.5-1.5 times ``params.fall_px`` pixels a frame, a sideways drift
+    of up to a fifth of it, and its own size, level and blur. At frame ``i`` it is ``i`` steps
+    further on, wrapped round the frame (with a margin, so that a flake leaves at the bottom
+    and comes back at the top). ``params.count`` flakes are drawn, the first ones of the
+    scene's ``pool`` (the same for every frame: at most ``pool`` are drawn); their shape is
+    :func:`render_snow`'s.
+    """
+    h, w = _shape2(shape)
+    p = params
+    _require(p.fall_px > 0, "render_falling_snow", "params.fall_px must be > 0")
+    rng = _as_rng(flakes)
+    _require(pool >= 1, "render_falling_snow", "pool must be >= 1")
+    n = min(int(p.count), pool)
+    # drawn for the whole pool, so that a flake is the same whatever the frame's count
+    start = rng.uniform((0.0, 0.0), (1.0, 1.0), size=(pool, 2))
+    speed = p.fall_px * rng.uniform(0.5, 1.5, pool)
+    drift = speed * rng.uniform(-0.2, 0.2, pool)
+    theta, is_noise = _orientations(pool, p.mu_deg, p.sigma_deg, p.noise_fraction, rng)
+    margin = 8.0
+    span_x, span_y = w + 2 * margin, h + 2 * margin
+    x = np.mod(start[:n, 0] * span_x + drift[:n] * i, span_x) - margin
+    y = np.mod(start[:n, 1] * span_y + speed[:n] * i, span_y) - margin
+    shapes = np.random.default_rng(rng.integers(2**63))  # sizes and levels, fixed per flake
+    return _snow_layer(
+        (h, w), p, np.column_stack((x, y)), theta[:n], is_noise[:n], shapes, pool=pool
+    )
+
+
+def _snow_layer(
+    shape: tuple[int, int],
+    p: SnowParams,
+    centers: np.ndarray,
+    theta: np.ndarray,
+    is_noise: np.ndarray,
+    rng: np.random.Generator,
+    *,
+    pool: int | None = None,
+) -> StreakLayer:
+    """The flakes at ``centers``: sizes, blurs and levels drawn from ``rng`` (``pool`` of
+    them, the first ones used, when the flakes persist), drawn and softened."""
+    h, w = shape
+    n = len(centers)
+    m = n if pool is None else pool
     r_min, r_max = p.radius_px
-    radius = r_min + (r_max - r_min) * rng.random(n) ** 2
-    lengths = np.maximum(p.blur_px * (1.0 + p.blur_jitter * rng.standard_normal(n)), 0.0)
-    levels = np.clip(p.level * (1.0 + p.level_jitter * rng.standard_normal(n)), 0.0, 255.0)
+    radius = (r_min + (r_max - r_min) * rng.random(m) ** 2)[:n]
+    lengths = np.maximum(p.blur_px * (1.0 + p.blur_jitter * rng.standard_normal(m)), 0.0)[:n]
+    levels = np.clip(p.level * (1.0 + p.level_jitter * rng.standard_normal(m)), 0.0, 255.0)[:n]
     semi_axes = np.stack([radius + 0.5 * lengths, radius], axis=1)
     gauss, noise = _draw_blobs((h, w), centers, theta, semi_axes, levels, is_noise)
     if p.softness_px > 0:

@@ -16,6 +16,7 @@ from drivers.simulator import (
     _demo_schedule,
     composite,
     demo_frames,
+    render_falling_snow,
     render_snow,
     render_streaks,
     write_video,
@@ -294,6 +295,45 @@ def test_snow_scene_truth():
     assert np.all(diff[truth.mask] >= VISIBLE_C - 1)  # flakes brighten what they cover...
     assert np.all(diff >= 0)  # ...and never darken it (max compositing)
     assert np.percentile(gray[truth.mask], 90) > 200
+
+
+def test_falling_snow_persists_and_falls():
+    """SnowParams.fall_px: the same flakes, a few pixels lower each frame (0.5-1.5 times the
+    mean fall, drifting sideways by at most a fifth of it); wrapped round the frame."""
+    w, h = 200, 400
+    snow = SnowParams(count=1, fall_px=4.0, radius_px=(1.5, 1.5), blur_px=0.0)
+    ys = []
+    for i in range(6):
+        layer = render_falling_snow((h, w), snow, 9, i, pool=64)
+        x0, y0, *_ = _moments(layer.mask)
+        ys.append((x0, y0))
+    steps = np.diff(np.array(ys), axis=0)
+    steps = steps[steps[:, 1] > 0]  # a step that wrapped round the frame is left out
+    assert len(steps) >= 4
+    assert np.allclose(steps[:, 1], steps[0, 1], atol=0.6)
+    assert 2.0 - 0.6 <= steps[0, 1] <= 6.0 + 0.6
+    assert np.all(np.abs(steps[:, 0]) <= 0.2 * steps[:, 1] + 0.6)
+    # many flakes: the layer one frame on is the layer shifted down, mostly
+    many = SnowParams(count=60, fall_px=3.0)
+    a = render_falling_snow((h, w), many, 9, 10, pool=128).mask
+    b = render_falling_snow((h, w), many, 9, 11, pool=128).mask
+    overlap = [(np.roll(a, k, axis=0) & b).sum() for k in range(0, 7)]
+    assert overlap[0] < 0.8 * max(overlap)  # they moved...
+    assert int(np.argmax(overlap)) in (2, 3, 4)  # ...down by about 3 pixels
+    # a scene with falling snow draws it so, frame after frame
+    scene = _scene(seed=2, snow=SnowParams(count=80, fall_px=3.0))
+    m0, m1 = scene.frame(5)[1].mask, scene.frame(6)[1].mask
+    overlap = [(np.roll(m0, k, axis=0) & m1).sum() for k in range(0, 7)]
+    assert int(np.argmax(overlap)) in (2, 3, 4)
+
+
+def test_snow_drawn_anew_is_unchanged_by_the_falling_kind():
+    """fall_px = 0 draws what render_snow always drew (the benchmark's other scenes)."""
+    layer = render_snow((96, 160), SnowParams(count=50), 3)
+    again = render_snow((96, 160), SnowParams(count=50, fall_px=0.0), 3)
+    assert np.array_equal(layer.layer, again.layer)
+    with pytest.raises(ValueError, match="fall_px"):
+        render_falling_snow((96, 160), SnowParams(count=5), 3, 0, pool=8)
 
 
 def test_schedule_zero_is_clear_weather():
