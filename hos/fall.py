@@ -118,13 +118,18 @@ class FallMeter:
         self.vertical = float(vertical)
         self.max_points = max_points
         self._before: tuple[np.ndarray, object] | None = None  # points and their tree
-        self._counts: deque[tuple[int, int]] = deque(maxlen=window)
-        self._steps: deque[tuple[np.ndarray, np.ndarray]] = deque(maxlen=window)
+        # the last frames' (down, up) counts and their excess by displacement (1-pixel bins up
+        # to the longest step counted), and their running sums over the window
+        self._bins = math.ceil(self.radius * (1.0 + 1.0 / 0.6)) + 1
+        self._frames: deque[tuple[int, int, np.ndarray]] = deque()
+        self._down = self._up = 0
+        self._excess = np.zeros(self._bins)
 
     def reset(self) -> None:
         self._before = None
-        self._counts.clear()
-        self._steps.clear()
+        self._frames.clear()
+        self._down = self._up = 0
+        self._excess[:] = 0.0
 
     def update(self, points: np.ndarray) -> tuple[float, float]:
         """Add a frame's points; return ``(z, fall_px)`` over the window (``fall_px`` NaN
@@ -142,29 +147,32 @@ class FallMeter:
             down, up, d_steps, u_steps = _pairs(
                 tree_before, before, tree, points, self.radius, self.vertical
             )
-            self._counts.append((down, up))
-            self._steps.append((d_steps, u_steps))
+            last = self._bins - 1
+            excess = np.bincount(
+                np.minimum(d_steps.astype(np.intp), last), minlength=self._bins
+            ) - np.bincount(np.minimum(u_steps.astype(np.intp), last), minlength=self._bins)
+            if len(self._frames) == self.window:
+                old_down, old_up, old_excess = self._frames.popleft()
+                self._down -= old_down
+                self._up -= old_up
+                self._excess -= old_excess
+            self._frames.append((down, up, excess))
+            self._down += down
+            self._up += up
+            self._excess += excess
         self._before = (points, tree)
         return self.z, self.fall_px
 
     @property
     def z(self) -> float:
-        down = sum(c[0] for c in self._counts)
-        up = sum(c[1] for c in self._counts)
+        down, up = self._down, self._up
         return (down - up) / math.sqrt(down + up) if down + up else 0.0
 
     @property
     def fall_px(self) -> float:
         """Displacement along the vertical (pixels a frame) where down pairs outnumber the
         mirror up pairs most, in 1-pixel bins; NaN without an excess."""
-        if self.z <= 0.0 or not self._steps:
+        if self.z <= 0.0:
             return math.nan
-        bins = math.ceil(self.radius * (1.0 + 1.0 / 0.6)) + 1  # the longest step counted
-        down = np.zeros(bins)
-        up = np.zeros(bins)
-        for d, u in self._steps:
-            down += np.bincount(np.minimum(d.astype(np.intp), bins - 1), minlength=bins)
-            up += np.bincount(np.minimum(u.astype(np.intp), bins - 1), minlength=bins)
-        excess = down - up
-        k = int(np.argmax(excess))
-        return k + 0.5 if excess[k] > 0 else math.nan
+        k = int(np.argmax(self._excess))
+        return k + 0.5 if self._excess[k] > 0 else math.nan

@@ -61,7 +61,7 @@ from .motion import exposure_gain, global_translation, reduce
 from .params import DetectorParams
 from .ptype import SNOW, PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
-from .smoothing import ParameterSmoother
+from .smoothing import Dwell, ParameterSmoother
 from .traffic import TrafficMap
 
 if _jit.ENABLED:
@@ -215,8 +215,8 @@ class HosDetector:
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
         # beyond the paper: precipitation seen by its fall (hos/fall.py); made per frame size
         self._fall: FallMeter | None = None
-        self._falling = False
-        self._fall_pending = 0  # frames in a row whose fall test disagrees with _falling
+        dp = self.params.decision
+        self._falling = Dwell(dp.dwell_on_frames, dp.dwell_off_frames)
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -613,7 +613,7 @@ class HosDetector:
             mom.y0,
             (mom.area <= max_area) & ~structural & ~in_traffic,
         )
-        rain = (smoothed.rain or self._falling) and state == State.OK
+        rain = (smoothed.rain or self._falling.value) and state == State.OK
 
         # 7. rain pixels
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
@@ -650,7 +650,7 @@ class HosDetector:
             reference_height=self._ptype.params.reference_height,
         )
         vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
-        if self._falling and not smoothed.rain and state == State.OK:
+        if self._falling.value and not smoothed.rain and state == State.OK:
             vote = SNOW  # seen falling, not as streaks: flakes
         precipitation_type = self._ptype.update(vote, precipitating=rain)
 
@@ -866,9 +866,10 @@ class HosDetector:
     def _fall_evidence(
         self, judged: bool, height: int, x: np.ndarray, y: np.ndarray, small: np.ndarray
     ) -> tuple[float, float]:
-        """Step 6b: update the fall meter with this frame's small blobs (label 0 excluded) and
-        the fall verdict (``_falling``, with the decision's dwell); ``(z, fall_px)``. A frame
-        that cannot be judged restarts the meter: the next one is not paired with the last."""
+        """Step 6b: update the fall meter with this frame's small blobs (``small``, the
+        caller's mask over the labels; label 0 is cleared in it) and the fall verdict
+        (``_falling``, with the decision's dwell); ``(z, fall_px)``. A frame that cannot be
+        judged restarts the meter: the next one is not paired with the last."""
         dp = self.params.decision
         if dp.fall_z <= 0:
             return 0.0, math.nan
@@ -878,19 +879,11 @@ class HosDetector:
         if not judged:
             self._fall.reset()
             return 0.0, math.nan
-        small = small.copy()
-        small[0] = False
+        small[0] = False  # the background label
         z, fall_px = self._fall.update(np.column_stack((x[small], y[small])))
         # on at fall_z, off under three quarters of it; each held for the dwell frames
-        wants = z >= (0.75 * dp.fall_z if self._falling else dp.fall_z)
-        if wants == self._falling:
-            self._fall_pending = 0
-        else:
-            self._fall_pending += 1
-            dwell = dp.dwell_off_frames if self._falling else dp.dwell_on_frames
-            if self._fall_pending >= dwell:
-                self._falling, self._fall_pending = wants, 0
-        return z, fall_px if self._falling else math.nan
+        falling = self._falling.update(z >= (0.75 if self._falling.value else 1.0) * dp.fall_z)
+        return z, fall_px if falling else math.nan
 
     def _merge_correction(
         self, area: np.ndarray, accepted: np.ndarray, excluded: np.ndarray, max_area: float

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 from .params import DecisionParams
 
-__all__ = ["ParameterSmoother", "SmoothedState", "kalman_predict", "kalman_update"]
+__all__ = ["Dwell", "ParameterSmoother", "SmoothedState", "kalman_predict", "kalman_update"]
 
 _TWO_PI = 2.0 * math.pi
 
@@ -72,6 +72,30 @@ def kalman_update(x: float, p: float, z: float, r: float) -> tuple[float, float]
     return x, i_kh * p * i_kh + k * r * k  # (I - KH) P (I - KH)' + K R K'
 
 
+class Dwell:
+    """A verdict that changes only once its test has disagreed with it for ``on_frames``
+    consecutive frames (to become true) or ``off_frames`` (to become false)."""
+
+    def __init__(self, on_frames: int, off_frames: int) -> None:
+        self.on_frames = on_frames
+        self.off_frames = off_frames
+        self.reset()
+
+    def reset(self) -> None:
+        self.value = False
+        self._pending = 0  # consecutive frames whose test disagrees with the verdict
+
+    def update(self, wants: bool) -> bool:
+        """Add one frame's test; return the verdict."""
+        if wants == self.value:
+            self._pending = 0
+        else:
+            self._pending += 1
+            if self._pending >= (self.off_frames if self.value else self.on_frames):
+                self.value, self._pending = wants, 0
+        return self.value
+
+
 class ParameterSmoother:
     """Kalman filter of x = (Pi, mu, sigma), F = H = I, and the decision with hysteresis."""
 
@@ -87,13 +111,12 @@ class ParameterSmoother:
         q, r = p.process_var, p.measurement_var
         steady = 0.5 * (q + math.sqrt(q * q + 4.0 * q * r)) - q
         self._p = [steady, 1.0, 1.0]
-        self._rain = False
-        self._pending = 0  # consecutive frames whose threshold test disagrees with the verdict
+        self._verdict = Dwell(p.dwell_on_frames, p.dwell_off_frames)
 
     @property
     def state(self) -> SmoothedState:
         x = self._x
-        return SmoothedState(x[0], x[1], x[2], self._rain)
+        return SmoothedState(x[0], x[1], x[2], self._verdict.value)
 
     @property
     def variance(self) -> tuple[float, float, float]:
@@ -139,14 +162,8 @@ class ParameterSmoother:
         """Threshold with hysteresis; a new verdict must hold for ``dwell_on/off_frames``."""
         p = self.params
         pi = self._x[0]
-        wants = pi >= p.pi_rain - p.hysteresis if self._rain else pi > p.pi_rain
-        if wants == self._rain:
-            self._pending = 0
-        else:
-            self._pending += 1
-            dwell = p.dwell_off_frames if self._rain else p.dwell_on_frames
-            if self._pending >= dwell:
-                self._rain, self._pending = wants, 0
+        rain = self._verdict.value
+        self._verdict.update(pi >= p.pi_rain - p.hysteresis if rain else pi > p.pi_rain)
         return self.state
 
 

@@ -291,14 +291,13 @@ class Scene:
             wet = wet + layers[-1].layer
         if snow_k > 0 and p.snow is not None:
             rng = np.random.default_rng([self.seed, _SNOW, i])
-            count = int(rng.poisson(p.snow.count * snow_k))
+            snow = replace(p.snow, count=int(rng.poisson(p.snow.count * snow_k)))
             if p.snow.fall_px > 0:  # the scene's flakes, where they have fallen to by now
                 flakes = np.random.default_rng([self.seed, _SNOW])
                 pool = 2 * p.snow.count + 64
-                snow = replace(p.snow, count=count)
                 layers.append(render_falling_snow(shape, snow, flakes, i, pool=pool))
             else:
-                layers.append(render_snow(shape, replace(p.snow, count=count), rng))
+                layers.append(render_snow(shape, snow, rng))
             wet = np.maximum(wet, layers[-1].layer)
         if not layers:
             out = clear
