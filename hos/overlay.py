@@ -1,8 +1,9 @@
 """What the detector saw, drawn over the frame: the view of the paper's Fig. 12.
 
 The frame in grey with every blob coloured by its class (rain green, noise red, rejected by the
-size rule blue, structural purple), an inset plotting the HOS with the fitted mixture of eq. 23
-and the Kalman-smoothed Gaussian, and a line of text with the verdict and its numbers.
+size rule blue, structural or found again purple, traffic orange), an inset plotting the HOS
+with the fitted mixture of eq. 23 and the Kalman-smoothed Gaussian, and a line of text with
+the verdict and its numbers.
 
 Pure: arrays in, a new BGR image out; the inputs are never modified. OpenCV drawing only.
 """

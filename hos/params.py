@@ -364,6 +364,16 @@ class RobustnessParams:
     traffic_now: bool = True
     traffic_hits: float = 5.0
     traffic_below: int = 2
+    #: Beyond the paper: a streak-sized blob found again in the next judged frame, moved by
+    #: more than nothing and less than ``found_again_radius`` pixels (at
+    #: ``size_reference_height`` rows), is not a new drop (a drop falls at least its streak's
+    #: length between frames) and takes no part in the HOS (``hos/again.py``): foliage and
+    #: hedges flickering with the sway, fragments creeping along a lane. Not while the blobs
+    #: found again fall, by ``found_again_fall_z`` standard deviations over
+    #: ``found_again_frames`` frames (slow snow). 0: the paper's HOS of every blob.
+    found_again_radius: float = 3.0
+    found_again_frames: int = 25
+    found_again_fall_z: float = 8.0
 
     def __post_init__(self) -> None:
         _check(self.warmup_frames >= 0, "warmup_frames", "must be >= 0")
@@ -395,6 +405,9 @@ class RobustnessParams:
         _check(self.traffic_ratio >= 0, "traffic_ratio", "must be >= 0")
         _check(self.traffic_hits >= 0, "traffic_hits", "must be >= 0")
         _check(self.traffic_below >= 0, "traffic_below", "must be >= 0")
+        _check(self.found_again_radius >= 0, "found_again_radius", "must be >= 0")
+        _check(self.found_again_frames >= 1, "found_again_frames", "must be >= 1")
+        _check(self.found_again_fall_z >= 0, "found_again_fall_z", "must be >= 0")
 
 
 @dataclass(frozen=True)

@@ -37,6 +37,7 @@ import cv2
 import numpy as np
 
 from . import _jit
+from .again import FoundAgain
 from .angles import wrap_diff, wrapped_normal_pdf
 from .background import (
     FrameDiffSegmenter,
@@ -215,6 +216,7 @@ class HosDetector:
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
         # beyond the paper: precipitation seen by its fall (hos/fall.py); made per frame size
         self._fall: FallMeter | None = None
+        self._again: FoundAgain | None = None
         dp = self.params.decision
         self._falling = Dwell(dp.dwell_on_frames, dp.dwell_off_frames)
 
@@ -510,8 +512,12 @@ class HosDetector:
             in_traffic[0] = False
         else:
             in_traffic = np.zeros(blobs.n_labels, dtype=bool)
-        traffic = in_traffic & sized & ~structural
-        accepted = sized & ~structural & ~traffic
+        # 3c. blobs found again a little way off (beyond the paper, hos/again.py): not new drops
+        # (compared from the warm-up on, so that slow snow is known to fall when judging starts)
+        comparable = state in (State.OK, State.WARMING_UP) and not moved
+        again = self._found_again(comparable, h, mom.x0, mom.y0, sized)
+        traffic = in_traffic & sized & ~structural & ~again
+        accepted = sized & ~structural & ~traffic & ~again
         idx = np.flatnonzero(accepted)
 
         # 4-5. orientation, HOS, mixture
@@ -618,7 +624,8 @@ class HosDetector:
         # 7. rain pixels
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
         blob_class[0] = BlobClass.NONE
-        blob_class[sized & structural] = BlobClass.STRUCTURE  # streak-sized, but recurs in place
+        # streak-sized, but recurs in place, or was found again a little way off
+        blob_class[sized & (structural | again)] = BlobClass.STRUCTURE
         blob_class[traffic] = BlobClass.TRAFFIC
         if smoothed.rain:
             model = (smoothed.pi, smoothed.mu, smoothed.sigma)
@@ -680,6 +687,7 @@ class HosDetector:
             candidate_fraction=candidate_fraction,
             n_structural_blobs=int(np.count_nonzero(sized & structural)),
             n_traffic_blobs=int(np.count_nonzero(traffic)),
+            n_found_again_blobs=int(np.count_nonzero(again & ~structural)),
             fall_z=fall_z,
             fall_px=fall_px,
             labels=blobs.labels,
@@ -862,6 +870,33 @@ class HosDetector:
         level = max(rob.mover_rate, rob.mover_ratio * typical)
         movers = (self._fg_rate > level).view(np.uint8)
         self._movers = None if cv2.countNonZero(movers) > movers.size // 2 else movers
+
+    def _found_again(
+        self, comparable: bool, height: int, x: np.ndarray, y: np.ndarray, sized: np.ndarray
+    ) -> np.ndarray:
+        """Step 3c: (n_labels,) bool, the streak-sized blobs (``sized``; label 0 is left
+        out) found again a little way off since the last comparable frame (hos/again.py). A
+        frame that is not (the camera moved, the view changed) restarts the rule: the next one
+        is not compared with the last."""
+        rob = self.params.robustness
+        found = np.zeros(sized.size, dtype=bool)
+        if rob.found_again_radius <= 0:
+            return found
+        radius = rob.found_again_radius * height / self.params.segmentation.size_reference_height
+        if self._again is None or self._again.radius != radius:
+            self._again = FoundAgain(
+                radius=radius,
+                frames=rob.found_again_frames,
+                fall_z=rob.found_again_fall_z,
+                vertical=self.params.decision.vertical,
+            )
+        if not comparable:
+            self._again.reset()
+            return found
+        blobs = np.flatnonzero(sized)
+        blobs = blobs[blobs > 0]  # the background label
+        found[blobs] = self._again.update(np.column_stack((x[blobs], y[blobs])))
+        return found
 
     def _fall_evidence(
         self, judged: bool, height: int, x: np.ndarray, y: np.ndarray, small: np.ndarray

@@ -28,7 +28,7 @@ class BlobClass:
     RAIN = 1  # drawn green in the overlay
     NOISE = 2  # a streak-sized blob whose orientation is not the rain's: red
     SIZE = 3  # rejected by the size rule: blue
-    STRUCTURE = 4  # rejected because it recurs in place (edges, foliage): blue too
+    STRUCTURE = 4  # recurs in place (edges, foliage), or found again a little way off: purple
     TRAFFIC = 5  # streak-sized, but where vehicles, pedestrians or spray are or pass: orange
 
 
@@ -87,6 +87,9 @@ class FrameResult:
     candidate_fraction: float = 0.0
     n_structural_blobs: int = 0
     n_traffic_blobs: int = 0
+    #: Beyond the paper (hos/again.py): streak-sized blobs found again a little way off since
+    #: the last frame, not new drops, left out of the HOS (not counted in the two above).
+    n_found_again_blobs: int = 0
     #: Beyond the paper (hos/fall.py): the evidence that what the small blobs show falls (z,
     #: in standard deviations over ``decision.fall_frames`` frames), and how far it falls,
     #: pixels a frame (NaN unless it is seen falling).
@@ -138,6 +141,7 @@ class FrameResult:
             "brightness": json_float(self.brightness),
             "n_structural_blobs": int(self.n_structural_blobs),
             "n_traffic_blobs": int(self.n_traffic_blobs),
+            "n_found_again_blobs": int(self.n_found_again_blobs),
             "fall_z": json_float(self.fall_z),
             "fall_px": json_float(self.fall_px),
         }

@@ -570,7 +570,9 @@ def _said_over_texture(decision: dict, draw, *, seed: int, robustness: dict | No
     return float(np.mean(said[100:]))
 
 
-def _few_streaks(places: float, *, spread: bool, stale_level: float = 1.0) -> float:
+def _few_streaks(
+    places: float, *, spread: bool, stale_level: float = 1.0, found_again: float = 3.0
+) -> float:
     """Three short vertical streaks a frame over a still textured scene, too few to fit alone:
     at new random places every frame (rain) or at the same places, moving a pixel every four
     frames (the parts of a distant walker). The share of frames said rain."""
@@ -583,9 +585,8 @@ def _few_streaks(places: float, *, spread: bool, stale_level: float = 1.0) -> fl
                 x, y = 100 + i // 4 + 3 * k, 120 + 7 * k
             f[y : y + 5, x] += 40
 
-    return _said_over_texture(
-        {"pool_places": places}, draw, seed=3, robustness={"stale_level": stale_level}
-    )
+    robustness = {"stale_level": stale_level, "found_again_radius": found_again}
+    return _said_over_texture({"pool_places": places}, draw, seed=3, robustness=robustness)
 
 
 def test_a_pooled_fit_needs_its_blobs_spread_like_rain():
@@ -593,11 +594,14 @@ def test_a_pooled_fit_needs_its_blobs_spread_like_rain():
     the same cells are no rain, while as few streaks landing somewhere new are; without the
     rule (0) the parts were rain on about half the frames. The parts stand still for three
     frames in four, so most are also copies of the last frames (departure 19), which
-    ``stale_level = 0`` turns off: each rule is shown alone."""
-    assert _few_streaks(0.75, spread=False, stale_level=0.0) == 0.0
+    ``stale_level = 0`` turns off, and moved a pixel they are found again (departure 23),
+    which ``found_again_radius = 0`` turns off: each rule is shown alone."""
+    alone = {"stale_level": 0.0, "found_again": 0.0}
+    assert _few_streaks(0.75, spread=False, **alone) == 0.0
     assert _few_streaks(0.75, spread=True) > 0.9
-    assert _few_streaks(0.0, spread=False, stale_level=0.0) > 0.3
-    assert _few_streaks(0.0, spread=False) == 0.0  # and the copies rule alone too
+    assert _few_streaks(0.0, spread=False, **alone) > 0.3
+    assert _few_streaks(0.0, spread=False, found_again=0.0) == 0.0  # the copies rule alone
+    assert _few_streaks(0.0, spread=False, stale_level=0.0) == 0.0  # the found again alone
 
 
 def _draw_segments(f, x, y, theta, *, half_length: float) -> None:
