@@ -231,6 +231,12 @@ class DecisionParams:
     measurement_blobs: float = 100.0
     #: Beyond the paper: a fitted Gaussian wider than this is not a streak population.
     sigma_max: float = math.radians(36.0)
+    #: Beyond the paper: nor is one narrower than this (the fitted sigma, voting kernels
+    #: included). The HOS's bins are a degree wide: a Gaussian under two of them is one
+    #: orientation repeated, parallel structure (lights mirrored in a wet road, a railing's
+    #: bars), where rain's orientations spread over more (perspective, turbulence, and each
+    #: short streak's own uncertainty, eq. 19). 0: no lower limit.
+    sigma_min: float = math.radians(2.0)
     #: Beyond the paper: precipitation falls. A streak population whose mean orientation is
     #: further than ``max_tilt`` from the camera's vertical (``vertical``, 90 degrees for an
     #: upright camera; set it for a rolled one) is traffic, lane markings or vanishing lines.
@@ -261,6 +267,7 @@ class DecisionParams:
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
         _check(self.measurement_blobs >= 0, "measurement_blobs", "must be >= 0")
         _check(self.sigma_max > 0, "sigma_max", "must be > 0")
+        _check(0 <= self.sigma_min < self.sigma_max, "sigma_min", "must be in [0, sigma_max)")
         _check(0 < self.max_tilt <= math.pi / 2, "max_tilt", "must be in (0, 90] degrees")
         _check(self.s_b > 0, "s_b", "must be > 0")
 

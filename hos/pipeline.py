@@ -562,6 +562,8 @@ class HosDetector:
             fit.ok
             and fit.gof_ok
             and spread <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
+            # beyond the paper: not one orientation repeated (parallel structure)
+            and fit.sigma >= dp.sigma_min
             and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
             # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
             # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)

@@ -664,3 +664,25 @@ def test_short_streaks_are_judged_by_their_spread_not_their_votes_width():
     assert _short_streaks(True, spread_deg=8.0) > 0.9
     assert _short_streaks(False, spread_deg=8.0) == 0.0
     assert _short_streaks(True, spread_deg=None) == 0.0
+
+
+def _parallel_lines(sigma_min_deg: float) -> float:
+    """Four bright lines of 16 pixels a frame, exactly vertical, at new places every frame:
+    the lights of vehicles mirrored in a wet road, before the traffic map has learnt the
+    lanes. The share of frames said rain."""
+
+    def draw(f, i, rng):
+        for _ in range(4):
+            x, y = rng.integers(10, 310), rng.integers(10, 215)
+            f[y : y + 16, x] += 40
+
+    return _said_over_texture({"sigma_min_deg": sigma_min_deg}, draw, seed=4)
+
+
+def test_one_orientation_repeated_is_not_rain():
+    """``decision.sigma_min`` (departure 24): their fit collapses to the mixture's floor
+    (1 degree), narrower than rain's orientations ever are; the control, without the limit,
+    says rain. (Lines of 8 pixels vote with kernels of 4.6 degrees, eq. 19: their fit is
+    wider than the limit, which catches long parallel blobs only.)"""
+    assert _parallel_lines(2.0) == 0.0
+    assert _parallel_lines(0.0) > 0.5
