@@ -38,7 +38,8 @@ def demo_params(
     width: int = 640, height: int = 360, fps: float = 25, *, schedule: Schedule | None = None
 ) -> SceneParams:
     """The demo street's :class:`SceneParams` for this frame size: cars, pedestrians, light
-    wind in the tree, a little sensor noise, and moderate rain or snow at multiplier 1.
+    wind in the tree, a little sensor noise, and moderate rain or snow (falling flakes) at
+    multiplier 1.
 
     ``schedule`` (see :class:`SceneParams`) says when it rains or snows; None: the demo's
     cycle. Counts and lengths scale with the frame size so that the rain looks the same at any
@@ -46,7 +47,9 @@ def demo_params(
     """
     area = width * height / (640 * 360)
     rain = StreakParams(count=max(1, round(300 * area)), length_px=max(3.0, 11.0 * height / 540))
-    snow = SnowParams(count=max(1, round(220 * area)))
+    # flakes that persist and fall, 3 px a frame at 480 rows, as snow does (the fall rule,
+    # hos/fall.py, sees them as well as the HOS)
+    snow = SnowParams(count=max(1, round(220 * area)), fall_px=3.0 * height / 480)
     if schedule is None:
         schedule = functools.partial(_demo_schedule, fps=fps)
     return SceneParams(
