@@ -7,11 +7,13 @@ Steps, in the paper's order (Fig. 1), with our additions marked *beyond*:
 2. candidate pixels: MoG + photometric rule (eqs. 3-8) or the frame difference rule (eq. 32),
    restricted to the region of interest;
 3. connected components, size rule (section 2.4), *beyond*: structure rule (blobs that recur in
-   place);
+   place), copies of the last frame, the traffic map (``hos.traffic``), blobs found again a
+   little way off (``hos.again``);
 4. moments, orientation, semi-axes and uncertainty of every blob (eqs. 13-19);
 5. HOS (eq. 20), EM fit of the Gaussian-uniform mixture (eqs. 23-25), goodness of fit (eq. 26);
 6. Kalman smoothing of (Pi, mu, sigma) and the decision on Pi_rain (section 5), *beyond*: misses
-   decay the state, hysteresis, a minimum number of blobs, a maximum sigma;
+   decay the state, hysteresis, a minimum number of blobs, a minimum and a maximum sigma,
+   precipitation seen by its fall (``hos.fall``);
 7. rain pixels: blobs classified by the Bayes ratio against S_b (eqs. 28-30);
 8. intensity R = S * Pi (eq. 31), *beyond*: corrected for merged streaks in heavy rain;
 9. *beyond*: rain or snow, from the rain blobs' shape, voted over recent frames (``hos.ptype``).
