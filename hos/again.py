@@ -37,6 +37,8 @@ from collections import deque
 
 import numpy as np
 
+from .fall import down_up, excess_z, kd_tree
+
 __all__ = ["FoundAgain"]
 
 #: Displacements along the vertical smaller than this (pixels) count neither way in the fall
@@ -83,8 +85,7 @@ class FoundAgain:
     @property
     def z(self) -> float:
         """(down - up) / sqrt(down + up) of the pairs found again over the window."""
-        n = self._down + self._up
-        return (self._down - self._up) / math.sqrt(n) if n else 0.0
+        return excess_z(self._down, self._up)
 
     @property
     def falling(self) -> bool:
@@ -94,21 +95,14 @@ class FoundAgain:
         """(M,) bool: which of this frame's ``points`` (M, 2) were found again."""
         points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         found = np.zeros(len(points), dtype=bool)
-        tree = None
-        if len(points):
-            from scipy.spatial import cKDTree  # as hos/fall.py: only when the rule is on
-
-            tree = cKDTree(points)
+        tree = kd_tree(points)  # scipy's, imported only when the rule is on
         down = up = 0
         if self._before is not None and tree is not None:
             dist, j = self._before.query(points, k=1, distance_upper_bound=self.radius)
             found = np.isfinite(dist) & (dist > 0.0)  # an exact copy is not "found again"
             d = points[found] - self._before.data[j[found]]
-            ux, uy = math.cos(self.vertical), math.sin(self.vertical)
-            along = d[:, 0] * ux + d[:, 1] * uy
-            across = np.abs(d[:, 1] * ux - d[:, 0] * uy)
-            down = int(np.count_nonzero((along >= _SLOW_STEP) & (across <= _CONE * along)))
-            up = int(np.count_nonzero((along <= -_SLOW_STEP) & (across <= -_CONE * along)))
+            is_down, is_up, _ = down_up(d, self.vertical, min_step=_SLOW_STEP, cone=_CONE)
+            down, up = int(np.count_nonzero(is_down)), int(np.count_nonzero(is_up))
         if len(self._counts) == self._counts.maxlen:
             old_down, old_up = self._counts[0]
             self._down -= old_down

@@ -34,7 +34,7 @@ from collections import deque
 
 import numpy as np
 
-__all__ = ["FallMeter", "fall_pairs"]
+__all__ = ["FallMeter", "down_up", "excess_z", "fall_pairs", "kd_tree"]
 
 
 def fall_pairs(
@@ -66,13 +66,14 @@ def fall_pairs(
     of each pair counted (down positive, up as a positive distance too), pixels.
     """
     return _pairs(
-        _tree(before), before, _tree(now), now, radius, vertical, min_step=min_step, cone=cone
+        kd_tree(before), before, kd_tree(now), now, radius, vertical, min_step=min_step, cone=cone
     )
 
 
-def _tree(points: np.ndarray):
+def kd_tree(points: np.ndarray):
     """scipy's k-d tree of ``points``, or None when there is none. Imported here:
-    scipy.spatial costs start-up time, and a detector with ``fall_z = 0`` never needs it."""
+    scipy.spatial costs start-up time, and a detector with neither this rule nor
+    ``hos.again``'s on never needs it."""
     from scipy.spatial import cKDTree
 
     return cKDTree(points) if len(points) else None
@@ -86,12 +87,28 @@ def _pairs(tree_before, before, tree_now, now, radius, vertical, *, min_step=1.5
     if pairs.size == 0:
         return 0, 0, empty, empty
     d = now[pairs["j"]] - before[pairs["i"]]
+    down, up, along = down_up(d, vertical, min_step=min_step, cone=cone)
+    return int(np.count_nonzero(down)), int(np.count_nonzero(up)), along[down], -along[up]
+
+
+def down_up(
+    d: np.ndarray, vertical: float, *, min_step: float, cone: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Displacements ``d`` (K, 2) in the down cone and in the up cone of the camera's
+    ``vertical`` (at least ``min_step`` along it, at most ``cone`` times that across it), and
+    each one's component along the vertical (down positive): ``(down, up, along)``."""
     ux, uy = math.cos(vertical), math.sin(vertical)
     along = d[:, 0] * ux + d[:, 1] * uy
     across = np.abs(d[:, 1] * ux - d[:, 0] * uy)
     down = (along >= min_step) & (across <= cone * along)
     up = (along <= -min_step) & (across <= -cone * along)
-    return int(np.count_nonzero(down)), int(np.count_nonzero(up)), along[down], -along[up]
+    return down, up, along
+
+
+def excess_z(down: int, up: int) -> float:
+    """(down - up) / sqrt(down + up): the excess of down pairs in standard deviations if the
+    pairs were independent and as likely either way; 0 without a pair."""
+    return (down - up) / math.sqrt(down + up) if down + up else 0.0
 
 
 class FallMeter:
@@ -141,7 +158,7 @@ class FallMeter:
         points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
         if len(points) > self.max_points:
             points = points[:: -(-len(points) // self.max_points)]
-        tree = _tree(points)
+        tree = kd_tree(points)
         if self._before is not None:
             before, tree_before = self._before
             down, up, d_steps, u_steps = _pairs(
@@ -165,8 +182,7 @@ class FallMeter:
 
     @property
     def z(self) -> float:
-        down, up = self._down, self._up
-        return (down - up) / math.sqrt(down + up) if down + up else 0.0
+        return excess_z(self._down, self._up)
 
     @property
     def fall_px(self) -> float:
