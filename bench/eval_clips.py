@@ -2,6 +2,7 @@
 judged and on how much of that it said rain (docs/method.md, "Real clips").
 
     .venv/bin/python bench/eval_clips.py CLIP [CLIP ...] [--set SECTION.KEY=VALUE] [--markdown]
+                                         [--passes N] [--parts SECONDS]
 
 Real rain video from fixed cameras is rarely redistributable, so no clip ships with the
 repository: point this at your own (the shared fixtures' clear clips work too). Each clip is
@@ -9,6 +10,11 @@ decoded as ``weatherd`` decodes it (PyAV) and given to the detector frame by fra
 frame rate; the first 90 frames (the warm-up and the first dwell) are not counted. "judged" is
 the share of the counted frames whose ``state`` is ok; "rain" is the share of the judged frames
 said rain; "episodes" counts the runs of rain and "longest" the longest, in frames.
+
+``--passes N`` plays each clip N times over (its timestamps running on) and counts the last
+pass only, all of it: the detector has then learnt the whole clip (its background, the traffic
+map, the rates of what recurs), which tells a part it misses for want of learning from a part
+it misses for want of evidence. ``--parts S`` adds the share said rain in each S seconds.
 """
 
 from __future__ import annotations
@@ -42,6 +48,8 @@ class ClipResult:
     rain: int = 0
     episodes: int = 0
     longest: int = 0
+    #: per part of the clip (``--parts``): [judged, said rain] frames
+    parts: dict[int, list[int]] = field(default_factory=dict)
 
     @property
     def counted(self) -> int:
@@ -52,27 +60,50 @@ class ClipResult:
         return self.states[State.OK]
 
 
-def evaluate(path: Path, overrides: tuple[str, ...] = (), max_frames: int = 0) -> ClipResult:
+def evaluate(
+    path: Path,
+    overrides: tuple[str, ...] = (),
+    max_frames: int = 0,
+    *,
+    passes: int = 1,
+    part_s: float = 0.0,
+) -> ClipResult:
     """Run the detector over the clip at ``path``, decoded as ``weatherd`` decodes it (PyAV,
     :func:`drivers.video.open_video`: OpenCV's capture aborts the process on some real files);
-    raises :class:`drivers.errors.InputError` when it cannot be read."""
+    raises :class:`drivers.errors.InputError` when it cannot be read. With ``passes`` > 1 the
+    clip is played that many times to one detector and the last pass is counted, whole;
+    ``part_s`` > 0 also counts each part of that many seconds (``ClipResult.parts``)."""
+    if passes < 1:
+        raise ValueError("passes must be >= 1")
     det = HosDetector(detector_params(overrides))
     run = 0
-    with open_video(path) as reader:
-        res = ClipResult(path.name, fps=reader.fps, size=(reader.width, reader.height))
-        for frame in reader:
-            if max_frames and res.frames >= max_frames:
-                break
-            r = det.process(frame.gray, frame.t_s)
-            res.frames += 1
-            if res.frames <= SETTLE:
-                continue
-            res.states[str(r.state)] += 1
-            said = bool(r.rain) and r.state == State.OK
-            res.rain += said
-            run = run + 1 if said else 0
-            res.episodes += run == 1
-            res.longest = max(res.longest, run)
+    offset = 0.0  # seconds added to the timestamps of a pass after the first
+    for n in range(passes):
+        last = n == passes - 1
+        end = offset
+        with open_video(path) as reader:
+            res = ClipResult(path.name, fps=reader.fps, size=(reader.width, reader.height))
+            step = 1.0 / reader.fps if reader.fps > 0 else 0.04
+            for frame in reader:
+                if max_frames and res.frames >= max_frames:
+                    break
+                r = det.process(frame.gray, frame.t_s + offset)
+                end = frame.t_s + offset + step
+                res.frames += 1
+                if not last or (passes == 1 and res.frames <= SETTLE):
+                    continue
+                res.states[str(r.state)] += 1
+                judged = r.state == State.OK
+                said = bool(r.rain) and judged
+                res.rain += said
+                run = run + 1 if said else 0
+                res.episodes += run == 1
+                res.longest = max(res.longest, run)
+                if part_s > 0:
+                    part = res.parts.setdefault(int(frame.t_s // part_s), [0, 0])
+                    part[0] += judged
+                    part[1] += said
+        offset = end
     return res
 
 
@@ -101,18 +132,36 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("clips", nargs="+", type=Path, metavar="CLIP")
     ap.add_argument("--markdown", action="store_true")
     ap.add_argument("--max-frames", type=int, default=0, help="stop each clip after N frames")
+    ap.add_argument(
+        "--passes", type=int, default=1, help="play each clip N times, count the last pass"
+    )
+    ap.add_argument(
+        "--parts", type=float, default=0.0, metavar="SECONDS", help="rain %% per part of the clip"
+    )
     add_set_option(ap)
     args = ap.parse_args(argv)
     started = time.perf_counter()
     results, failed = [], 0
     for path in args.clips:
         try:
-            results.append(evaluate(path, tuple(args.set), args.max_frames))
+            results.append(
+                evaluate(
+                    path, tuple(args.set), args.max_frames, passes=args.passes, part_s=args.parts
+                )
+            )
         except InputError as exc:
             print(f"eval_clips: {exc}", file=sys.stderr)
             failed += 1
     if results:
         print(format_table(HEADER, [row(r) for r in results], markdown=args.markdown))
+        for r in results:
+            if r.parts:
+                parts = ", ".join(
+                    f"{k * args.parts:g}-{(k + 1) * args.parts:g} s "
+                    + (f"{100 * said / judged:.0f}" if judged else "-")
+                    for k, (judged, said) in sorted(r.parts.items())
+                )
+                print(f"{r.name}, rain % of the judged frames of each {args.parts:g} s: {parts}")
     print(f"{len(results)} clips in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if failed else 0
 

@@ -6,6 +6,8 @@ from __future__ import annotations
 import importlib.util
 import sys
 
+import pytest
+
 from drivers.simulator import Scene, SceneParams
 from drivers.simulator.precipitation import StreakParams
 from drivers.simulator.video_writer import write_video
@@ -36,3 +38,34 @@ def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys
     out, err = capsys.readouterr()
     assert out.startswith("| clip | size |") and "| street.avi | 320x240 | 25.0 | 200 |" in out
     assert "notes.txt: cannot be read as a video" in err
+
+
+def test_a_second_pass_counts_the_whole_clip_and_its_parts(tmp_path, capsys) -> None:
+    rain = StreakParams(count=250, length_px=10.0, brightness=40.0, mu_deg=95)
+    params = SceneParams(fps=25.0, cars=1, rain=rain, schedule=[0.0] * 120 + [1.0] * 80)
+    scene = Scene(320, 240, seed=6, params=params)
+    path = tmp_path / "street.avi"
+    write_video(path, (scene.frame(i)[0] for i in range(200)), fps=25, codec="mjpeg")
+
+    once = clips.evaluate(path, part_s=2.0)
+    # the warm-up is not counted: the first part holds frames 90-99 only
+    assert once.counted == 200 - clips.SETTLE
+    assert sum(j for j, _ in once.parts.values()) == once.judged
+    assert set(once.parts) == {1, 2, 3} and once.parts[1] == [10, 0]
+
+    twice = clips.evaluate(path, passes=2, part_s=2.0)
+    assert twice.counted == 200 and twice.judged == 200  # the whole clip, nothing to warm up
+    assert set(twice.parts) == {0, 1, 2, 3}
+    judged, said = twice.parts[0]  # the loop comes back to clear weather, and the rain ends
+    assert judged == 50 and said < 50
+    # rain from frame 120 (the third part's 21st frame), said within the latency
+    assert twice.parts[1] == [50, 0] and 20 <= twice.parts[2][1] <= 30 and twice.parts[3][1] == 50
+    assert twice.rain == sum(s for _, s in twice.parts.values()) and twice.episodes == 2
+
+    assert clips.main([str(path), "--passes", "2", "--parts", "2"]) == 0
+    out, _ = capsys.readouterr()
+    assert "street.avi, rain % of the judged frames of each 2 s: 0-2 s " in out
+    assert ", 6-8 s 100" in out
+
+    with pytest.raises(ValueError, match="passes"):
+        clips.evaluate(path, passes=0)
