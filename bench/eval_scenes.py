@@ -17,7 +17,7 @@ import itertools
 import math
 import sys
 import time
-from collections import defaultdict
+from collections import Counter, defaultdict
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -82,6 +82,9 @@ class CaseResult:
     mu_errors: list[float] = field(default_factory=list)
     r_mean: float = math.nan
     seconds: float = 0.0
+    #: the camera's precipitation type on the frames scored for false rain or detection:
+    #: (truth, answer) -> frames; truth clear, rain or snow, answer rain, snow or unknown
+    types: Counter = field(default_factory=Counter)
 
 
 def wrapped_deg(a: float, b: float) -> float:
@@ -131,6 +134,7 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
     moving: list[bool] = []
     rs: list[float] = []
     visible: list[bool] = []
+    kinds: list[str] = []
     dry = _dry_twin(case)
     margin = visible_margin(case)
     twins = case_frames(dry) if dry is not None else itertools.repeat(None)
@@ -141,6 +145,7 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
             and visible_streaks(f.gray, d.gray, f.streaks, c=margin) >= VISIBLE_STREAKS
         )
         verdicts.append(bool(r.rain))
+        kinds.append(str(r.precipitation_type))
         truths.append(f.precipitation)
         states.append(r.state)
         moving.append(f.moving)
@@ -166,6 +171,9 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
             res.unstable += states[i] == State.UNSTABLE
         if near_change or after_move <= i < recovered:
             continue
+        if states[i] == State.OK:
+            truth = ("snow" if case.condition == "snow" else "rain") if truths[i] else "clear"
+            res.types[(truth, kinds[i] if verdicts[i] else "unknown")] += 1
         if not truths[i] and states[i] == State.OK:
             res.judged_clear += 1
             res.false_frames += verdicts[i]
@@ -323,6 +331,27 @@ def table(results: list[CaseResult]) -> tuple[list[list[str]], dict[str, float]]
     return rows, totals
 
 
+TYPES = ("rain", "snow", "unknown")
+
+
+def confusion(results: list[CaseResult]) -> list[list[str]]:
+    """The camera's precipitation type against the truth over the frames judged (state ok)
+    and scored (after the warm-up, not next to a change of the truth, not while the camera
+    moves): one row per truth (clear, rain, snow), frames and % of the row per answer."""
+    total: Counter = Counter()
+    for r in results:
+        total.update(r.types)
+    rows = []
+    for truth in ("clear", "rain", "snow"):
+        n = sum(total[(truth, a)] for a in TYPES)
+        cells = [
+            f"{total[(truth, a)]:,} ({100 * total[(truth, a)] / n:.1f} %)" if n else "-"
+            for a in TYPES
+        ]
+        rows.append([f"{truth} ({n:,})", *cells])
+    return rows
+
+
 def _fmt(values: list[float | None], *, measured: bool = True) -> str:
     v = [x for x in values if x is not None]
     missing = sum(1 for x in values if x is None)
@@ -394,6 +423,8 @@ def render(split: str, results: list[CaseResult], seconds: float, *, markdown: b
             ok = value <= bound if op == "<=" else value >= bound
             verdict = f"  target {op} {bound:g}: {'PASS' if ok else 'FAIL'}"
         lines.append(f"- {key}: {value:.2f}{verdict}")
+    lines += ["", "camera_precipitation_type (rows: truth; columns: the camera's answer):"]
+    lines.append(format_table(["truth (frames)", *TYPES], confusion(results), markdown=markdown))
     return "\n".join(lines)
 
 

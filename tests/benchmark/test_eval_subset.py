@@ -97,6 +97,27 @@ def test_small_scenes_through_the_detector() -> None:
     assert c.judged_clear > 50 and c.false_frames <= 0.2 * c.judged_clear
     assert r.wet > 50 and r.detected >= 0.5 * r.wet
     assert r.mu_errors and np.median(r.mu_errors) < 10
+    # the camera's type: clear frames are never typed, rain frames typed rain, never snow
+    assert set(c.types) <= {("clear", "rain"), ("clear", "snow"), ("clear", "unknown")}
+    assert sum(c.types.values()) == c.judged_clear
+    assert c.types[("clear", "unknown")] >= 0.8 * c.judged_clear
+    assert r.types[("rain", "snow")] == 0 and r.types[("rain", "rain")] >= 0.5 * r.wet
+
+
+def test_the_type_confusion_matrix_adds_the_scenes_up() -> None:
+    a = ev.CaseResult("a", "snow", "static", 1.0, 25.0)
+    a.types.update({("snow", "snow"): 30, ("snow", "unknown"): 10, ("clear", "unknown"): 5})
+    b = ev.CaseResult("b", "light", "wind", 1.0, 25.0)
+    b.types.update({("rain", "rain"): 45, ("rain", "snow"): 5, ("clear", "rain"): 5})
+    rows = ev.confusion([a, b])
+    assert rows[0] == ["clear (10)", "5 (50.0 %)", "0 (0.0 %)", "5 (50.0 %)"]
+    assert rows[1] == ["rain (50)", "45 (90.0 %)", "5 (10.0 %)", "0 (0.0 %)"]
+    assert rows[2] == ["snow (40)", "0 (0.0 %)", "30 (75.0 %)", "10 (25.0 %)"]
+    assert ev.confusion([])[0] == ["clear (0)", "-", "-", "-"]
+    text = ev.render("tuning", [a, b], 1.0, markdown=True)
+    assert (
+        "| truth (frames) | rain | snow | unknown |" in text and "| rain (50) | 45 (90.0 %)" in text
+    )
 
 
 def test_h264_scenes_come_back_compressed_frame_for_frame() -> None:
