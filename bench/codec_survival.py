@@ -33,18 +33,19 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from eval_scenes import _SEG, SETTLE, _dry_twin  # frames not scored, as make eval
 
 from drivers.simulator.families import SceneCase, case_frames, sample_case
 from hos import DetectorParams, HosDetector, State
 
-#: Frames after the start not scored (the detector's warm-up and first dwell), as make eval.
-SETTLE = 90
 #: Where the control test looks: the streak places moved by this many rows and columns.
 SHIFT = (17, 23)
 #: A streak stands out when it is brighter than its dry twin by this many grey levels
-#: somewhere: twice eq. 8's c, so that a pixel's rounding is not enough.
-STAND_OUT = 6
+#: somewhere: twice eq. 8's c (6), so that a pixel's rounding is not enough.
+STAND_OUT = 2 * _SEG.photometric_c
 
 
 def standing_out(
@@ -68,11 +69,10 @@ def standing_out(
 
 
 def dry_twin(case: SceneCase) -> SceneCase:
-    """``case`` with no streak drawn and every other draw the same."""
-    p = case.params
-    if p.rain is None:
+    """``case`` with no streak drawn and every other draw the same (make eval's twin)."""
+    if case.params.rain is None:
         raise ValueError(f"{case.name}: no rain to measure (a rain condition is needed)")
-    return replace(case, params=replace(p, rain=replace(p.rain, count=0)))
+    return _dry_twin(case)
 
 
 @dataclass

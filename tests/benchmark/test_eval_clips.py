@@ -19,12 +19,18 @@ sys.modules["eval_clips"] = clips  # its dataclass looks its module up
 _spec.loader.exec_module(clips)
 
 
-def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys) -> None:
+def _street(tmp_path, *, seed: int):
+    """A 200-frame MJPEG street at 320x240, 25 fps: clear for 120 frames, then rain."""
     rain = StreakParams(count=250, length_px=10.0, brightness=40.0, mu_deg=95)
     params = SceneParams(fps=25.0, cars=1, rain=rain, schedule=[0.0] * 120 + [1.0] * 80)
-    scene = Scene(320, 240, seed=5, params=params)
+    scene = Scene(320, 240, seed=seed, params=params)
     path = tmp_path / "street.avi"
     write_video(path, (scene.frame(i)[0] for i in range(200)), fps=25, codec="mjpeg")
+    return path
+
+
+def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys) -> None:
+    path = _street(tmp_path, seed=5)
     bad = tmp_path / "notes.txt"
     bad.write_text("not a video\n")
 
@@ -41,11 +47,7 @@ def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys
 
 
 def test_a_second_pass_counts_the_whole_clip_and_its_parts(tmp_path, capsys) -> None:
-    rain = StreakParams(count=250, length_px=10.0, brightness=40.0, mu_deg=95)
-    params = SceneParams(fps=25.0, cars=1, rain=rain, schedule=[0.0] * 120 + [1.0] * 80)
-    scene = Scene(320, 240, seed=6, params=params)
-    path = tmp_path / "street.avi"
-    write_video(path, (scene.frame(i)[0] for i in range(200)), fps=25, codec="mjpeg")
+    path = _street(tmp_path, seed=6)
 
     once = clips.evaluate(path, part_s=2.0)
     # the warm-up is not counted: the first part holds frames 90-99 only
