@@ -9,6 +9,7 @@ the image as a whole is structure, not rain.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import cv2
@@ -28,6 +29,7 @@ __all__ = [
     "label_candidates",
     "size_rule",
     "structure_rule",
+    "thin_rule",
 ]
 
 
@@ -122,6 +124,18 @@ def find_blobs_sparse(
 def size_rule(area: np.ndarray, *, min_area: float, max_area: float) -> np.ndarray:
     """(n,) bool: blobs whose area in pixels is plausible for a streak (section 2.4)."""
     return (area >= min_area) & (area <= max_area)
+
+
+def thin_rule(
+    area: np.ndarray, a: np.ndarray, *, min_area: float, max_area: float, width: float
+) -> np.ndarray:
+    """(n,) bool: blobs of ``min_area`` to ``max_area`` pixels that are streaks too long for
+    the size rule: thin, their area over their length at most ``width`` pixels (beyond the
+    paper). A bar L pixels long has the major semi-axis a = L / sqrt(3) (eq. 15 with the
+    pixel's own second moment), so its width is area / (sqrt(3) a)."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        thin = area <= width * math.sqrt(3.0) * a  # NaN (no moments) compares False
+    return (area >= min_area) & (area <= max_area) & thin
 
 
 class CandidateRate:

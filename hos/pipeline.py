@@ -55,6 +55,7 @@ from .blobs import (
     find_blobs_sparse,
     size_rule,
     structure_rule,
+    thin_rule,
 )
 from .fall import FallMeter
 from .histogram import hos_histogram
@@ -458,6 +459,8 @@ class HosDetector:
         # streak in a frame under 480 rows (max_area_scaling; docs/method.md, departure 16)
         max_scale = max(at, at * at) if sp.max_area_scaling == "streak" else at * at
         max_area = sp.max_area * max_scale
+        # thin blobs up to this size are streaks too (SegmentationParams.thin_factor)
+        thin_area = max_area * sp.thin_factor
 
         # 3. blobs, size rule, structure rule
         blobs = find_blobs_sparse(
@@ -465,7 +468,7 @@ class HosDetector:
             shape,
             rate=self._rate,
             min_area=min_area,
-            max_area=max_area,
+            max_area=thin_area,
             compiled=self.compiled,
         )
         mom = blobs.moments
@@ -504,6 +507,10 @@ class HosDetector:
             # as a whole: that foreground says nothing about what recurs in place.
             self._rate.update(candidates, candidate_fraction)
         sized = size_rule(mom.area, min_area=min_area, max_area=max_area)
+        if thin_area > max_area:  # a streak longer than the area bound allows (departure 25)
+            sized |= thin_rule(
+                mom.area, mom.a, min_area=max_area, max_area=thin_area, width=sp.thin_width
+            )
         sized[0] = False
         # the traffic map's cell of every blob: for the map, and for the pooled fit's spread
         blob_cells = self._traffic.cells(mom.x0, mom.y0)
@@ -564,8 +571,12 @@ class HosDetector:
             fit.ok
             and fit.gof_ok
             and spread <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
-            # beyond the paper: not one orientation repeated (parallel structure)
-            and fit.sigma >= dp.sigma_min
+            # beyond the paper: not one orientation repeated (parallel structure), unless one
+            # frame alone has many blobs at that orientation (parallel rain)
+            and (
+                fit.sigma >= dp.sigma_min
+                or (dp.sigma_min_blobs > 0 and pooled == 1 and fit.pi * n_eff >= dp.sigma_min_blobs)
+            )
             and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
             # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
             # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)
@@ -666,7 +677,9 @@ class HosDetector:
         precipitation_type = self._ptype.update(vote, precipitating=rain)
 
         # 8. intensity
-        merge = self._merge_correction(mom.area, accepted, structural | in_traffic, max_area)
+        merge = self._merge_correction(
+            mom.area, accepted, structural | in_traffic | sized, max_area
+        )
         R = S * smoothed.pi * merge
 
         return FrameResult(

@@ -536,13 +536,18 @@ def test_long_streaks_at_240_rows_pass_the_size_rule_that_scales_like_a_streak()
     wide, they cover 12-25 pixels. The paper's upper bound scaled with the frame's area allows
     12.5 pixels here and keeps only fragments; the larger of the area and the length laws
     (``segmentation.max_area_scaling = "streak"``, the default) allows 25 and keeps the
-    streaks (docs/method.md, departure 16)."""
+    streaks (docs/method.md, departure 16). The thin rule (departure 25), which would keep
+    them under either law, is off, so that the law alone is shown."""
     rain = StreakParams(count=40, length_px=12.0, brightness=30.0, sigma_deg=10.0, mu_deg=80)
     params = SceneParams(fps=15.0, cars=2, rain=rain, sensor_noise=2.0)
     frames = [Scene(320, 240, seed=4, params=params).frame(i)[0] for i in range(150)]
     said, blobs = {}, {}
     for law in ("streak", "area"):
-        det = HosDetector(DetectorParams.from_dict({"segmentation": {"max_area_scaling": law}}))
+        det = HosDetector(
+            DetectorParams.from_dict(
+                {"segmentation": {"max_area_scaling": law, "thin_factor": 1.0}}
+            )
+        )
         results = [det.process(f, i / 15) for i, f in enumerate(frames)][90:]
         said[law] = np.mean([r.rain for r in results])
         blobs[law] = np.median([r.n_blobs for r in results])
@@ -553,13 +558,24 @@ def test_long_streaks_at_240_rows_pass_the_size_rule_that_scales_like_a_streak()
     assert blobs["streak"] > 4 * blobs["area"], blobs
 
 
-def _said_over_texture(decision: dict, draw, *, seed: int, robustness: dict | None = None) -> float:
+def _said_over_texture(
+    decision: dict,
+    draw,
+    *,
+    seed: int,
+    robustness: dict | None = None,
+    segmentation: dict | None = None,
+) -> float:
     """The share of frames said rain (frames 100-199) over a still textured 320x240 scene with
     sensor noise, where ``draw(frame, i, rng)`` adds blobs to every frame from the 80th on,
-    with ``decision`` (and ``robustness``) parameters set."""
+    with ``decision`` (``robustness``, ``segmentation``) parameters set."""
     rng = np.random.default_rng(seed)
     bg = cv2.GaussianBlur(rng.uniform(60, 120, (240, 320)).astype(np.float32), (0, 0), 3)
-    params = {"decision": decision, "robustness": robustness or {}}
+    params = {
+        "decision": decision,
+        "robustness": robustness or {},
+        "segmentation": segmentation or {},
+    }
     det = HosDetector(DetectorParams.from_dict(params))
     said = []
     for i in range(200):
@@ -686,3 +702,91 @@ def test_one_orientation_repeated_is_not_rain():
     wider than the limit, which catches long parallel blobs only.)"""
     assert _parallel_lines(2.0) == 0.0
     assert _parallel_lines(0.0) > 0.5
+
+
+def _long_streaks(thin_factor: float, *, spread_deg: float | None) -> float:
+    """Twelve one-pixel segments of 30 pixels a frame at random places, their orientations
+    spread by ``spread_deg`` about 80 degrees (uniform over 180 degrees for None), over a
+    still textured 320x240 scene: rain seen through a long exposure, each streak longer than
+    the size rule's bound (25 pixels at 240 rows). The share of frames said rain."""
+
+    def draw(f, i, rng):
+        n = 12
+        x, y = rng.uniform(20, 300, n), rng.uniform(20, 220, n)
+        if spread_deg is None:
+            theta = rng.uniform(0, math.pi, n)
+        else:
+            theta = np.radians(rng.normal(80, spread_deg, n))
+        _draw_segments(f, x, y, theta, half_length=15.0)
+
+    return _said_over_texture({}, draw, seed=6, segmentation={"thin_factor": thin_factor})
+
+
+def test_streaks_longer_than_the_size_bound_are_seen_when_thin():
+    """``segmentation.thin_factor`` (departure 25): thin blobs up to four times the area bound
+    are streaks. Sparse long streaks are rain on every frame; with the area bound alone (1)
+    every one of them is too large and no rain is said. Long segments at any orientation are
+    still no rain."""
+    assert _long_streaks(4.0, spread_deg=5.0) > 0.9
+    assert _long_streaks(1.0, spread_deg=5.0) == 0.0
+    assert _long_streaks(4.0, spread_deg=None) == 0.0
+
+
+def _swaying_trunks(robustness: dict) -> float:
+    """Twenty bright bars 3 pixels wide and 44 long, tilted about the vertical (8 degrees),
+    swaying a pixel each way at fixed places, over a still textured scene: their edges are
+    thin, near vertical and longer than the size bound. The share of frames said rain."""
+    rng = np.random.default_rng(11)
+    x, y = rng.uniform(15, 305, 20), rng.uniform(40, 200, 20)
+    theta = np.radians(rng.normal(90, 8, 20))
+
+    def draw(f, i, _rng):
+        for k in range(20):
+            d = math.sin(0.9 * i + k)
+            dx, dy = 22 * math.cos(theta[k]), 22 * math.sin(theta[k])
+            p = (round((x[k] + d - dx) * 16), round((y[k] - dy) * 16))
+            q = (round((x[k] + d + dx) * 16), round((y[k] + dy) * 16))
+            cv2.line(f, p, q, 200.0, 3, cv2.LINE_AA, 4)
+
+    return _said_over_texture({}, draw, seed=7, robustness=robustness)
+
+
+def test_swaying_trunks_are_not_taken_for_long_streaks():
+    """With the thin rule on (the default), the edges of swaying trunks are no rain: the rules
+    for what recurs in place stop them. Without those rules they are rain on most frames, so
+    the scene would show a rule that let them through."""
+    assert HosDetector().params.segmentation.thin_factor > 1
+    assert _swaying_trunks({}) == 0.0
+    off = {
+        "found_again_radius": 0.0,
+        "persistence_floor": 1.0,
+        "persistence_ratio": 1000.0,
+        "stale_level": 0.0,
+        "traffic": False,
+    }
+    assert _swaying_trunks(off) > 0.5
+
+
+def _parallel_rain(sigma_min_blobs: float, *, angle: float, n: int) -> float:
+    """``n`` one-pixel segments of 16 pixels a frame, all at ``angle`` degrees, at new places
+    every frame, over a still textured scene: rain drawn at one orientation (or seen through
+    a telephoto lens in a steady wind). The share of frames said rain."""
+
+    def draw(f, i, rng):
+        x, y = rng.uniform(15, 305, n), rng.uniform(15, 225, n)
+        _draw_segments(f, x, y, np.full(n, math.radians(angle)), half_length=8.0)
+
+    decision = {"sigma_min_blobs": sigma_min_blobs}
+    return _said_over_texture(decision, draw, seed=8)
+
+
+@pytest.mark.parametrize("angle", [90.0, 75.0])
+def test_many_parallel_streaks_in_one_frame_are_rain(angle):
+    """``decision.sigma_min_blobs`` (departure 25): 40 streaks a frame at one orientation fit
+    a Gaussian at the mixture's floor, narrower than ``sigma_min``; one frame alone explains
+    more than 24 of them, so they are rain on every frame. With the exception off (0) the
+    limit calls them parallel structure: no rain (on a few frames at 75 degrees, where the
+    pixel grid spreads their orientations past the limit). Four such lines a frame, pooled over
+    frames, stay no rain (``test_one_orientation_repeated_is_not_rain``)."""
+    assert _parallel_rain(24.0, angle=angle, n=40) > 0.9
+    assert _parallel_rain(0.0, angle=angle, n=40) < 0.2

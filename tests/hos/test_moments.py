@@ -4,7 +4,7 @@ import cv2
 import numpy as np
 import pytest
 
-from hos.blobs import find_blobs
+from hos.blobs import find_blobs, thin_rule
 from hos.moments import blob_moments, orientation_uncertainty
 
 
@@ -99,3 +99,38 @@ def test_uncertainty_eq19_small_for_long_large_for_round():
         np.array([m20]), np.array([m11]), np.array([m02]), dm=dm, lo=0, hi=10
     )[0]
     assert analytic == pytest.approx(numeric, rel=1e-3)
+
+
+def _blob_of(mask: np.ndarray):
+    blobs = find_blobs(mask.astype(np.uint8) * 255)
+    return blobs.moments.area[1:], blobs.moments.a[1:]
+
+
+@pytest.mark.parametrize("angle", [0.0, 30.0, 80.0, 90.0, 135.0])
+def test_thin_rule_keeps_a_long_line_at_any_orientation(angle):
+    """A one-pixel line 60 pixels long, at any orientation, is thin: its area over its length
+    (sqrt(3) a) is about a pixel."""
+    mask = np.zeros((120, 120), np.uint8)
+    t = math.radians(angle)
+    dx, dy = 30 * math.cos(t), 30 * math.sin(t)
+    cv2.line(mask, (round(60 - dx), round(60 - dy)), (round(60 + dx), round(60 + dy)), 1, 1)
+    area, a = _blob_of(mask)
+    assert area[0] / (math.sqrt(3.0) * a[0]) == pytest.approx(1.0, abs=0.45)
+    assert thin_rule(area, a, min_area=25, max_area=100, width=2.5).tolist() == [True]
+
+
+def test_thin_rule_refuses_wide_blobs_and_the_sizes_outside_its_range():
+    """A 6x10 body is too wide, a 2x40 bar is thin; a thin blob under ``min_area`` (the size
+    rule's own) or over ``max_area`` is not the thin rule's; a blob without moments (NaN) is
+    refused."""
+    mask = np.zeros((80, 80), np.uint8)
+    mask[5:15, 5:11] = 1  # 60 pixels, 6 wide
+    mask[20:60, 30:32] = 1  # 80 pixels, 2 wide
+    area, a = _blob_of(mask)
+    assert thin_rule(area, a, min_area=25, max_area=100, width=2.5).tolist() == [False, True]
+    assert thin_rule(area, a, min_area=25, max_area=70, width=2.5).tolist() == [False, False]
+    assert thin_rule(area, a, min_area=25, max_area=100, width=1.5).tolist() == [False, False]
+    nan = np.array([np.nan])
+    assert thin_rule(np.array([50.0]), nan, min_area=25, max_area=100, width=2.5).tolist() == [
+        False
+    ]
