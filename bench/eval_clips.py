@@ -15,6 +15,13 @@ said rain; "episodes" counts the runs of rain and "longest" the longest, in fram
 pass only, all of it: the detector has then learnt the whole clip (its background, the traffic
 map, the rates of what recurs), which tells a part it misses for want of learning from a part
 it misses for want of evidence. ``--parts S`` adds the share said rain in each S seconds.
+
+``--draw-rain KIND`` draws the benchmark's rain of that kind (drizzle, light, moderate or
+heavy: ``drivers.simulator.families.rain_streaks``, falling at ``--rain-mu`` degrees) over
+every frame from ``--rain-from`` seconds on, after decoding: synthetic rain over a real
+background, a check of the detector on views that no renderer of ours drew. The report then
+adds, for each clip, the share said rain before the drawn rain and from a second after it
+began.
 """
 
 from __future__ import annotations
@@ -31,9 +38,16 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from eval_scenes import SETTLE, add_set_option, detector_params, format_table
 
+import numpy as np
+
 from drivers.errors import InputError
+from drivers.simulator import StreakParams, render_streaks
+from drivers.simulator.families import RAIN_KINDS, rain_streaks
 from drivers.video import open_video
 from hos import HosDetector, State
+
+#: With drawn rain, the frames of its first second are neither before it nor counted with it.
+DRAWN_SETTLE_S = 1.0
 
 
 @dataclass
@@ -50,6 +64,10 @@ class ClipResult:
     longest: int = 0
     #: per part of the clip (``--parts``): [judged, said rain] frames
     parts: dict[int, list[int]] = field(default_factory=dict)
+    #: with drawn rain (``--draw-rain``): [judged, said rain] frames before it, and from
+    #: ``DRAWN_SETTLE_S`` after it began
+    before_drawn: list[int] = field(default_factory=lambda: [0, 0])
+    with_drawn: list[int] = field(default_factory=lambda: [0, 0])
 
     @property
     def counted(self) -> int:
@@ -67,14 +85,24 @@ def evaluate(
     *,
     passes: int = 1,
     part_s: float = 0.0,
+    rain: str | None = None,
+    rain_from_s: float = 0.0,
+    rain_mu_deg: float = 85.0,
+    seed: int = 0,
 ) -> ClipResult:
     """Run the detector over the clip at ``path``, decoded as ``weatherd`` decodes it (PyAV,
     :func:`drivers.video.open_video`: OpenCV's capture aborts the process on some real files);
     raises :class:`drivers.errors.InputError` when it cannot be read. With ``passes`` > 1 the
     clip is played that many times to one detector and the last pass is counted, whole;
-    ``part_s`` > 0 also counts each part of that many seconds (``ClipResult.parts``)."""
+    ``part_s`` > 0 also counts each part of that many seconds (``ClipResult.parts``).
+    ``rain``: one of ``RAIN_KINDS``, drawn over the decoded frames from ``rain_from_s`` on
+    (the streaks from a generator seeded with ``seed``)."""
     if passes < 1:
         raise ValueError("passes must be >= 1")
+    if rain is not None and rain not in RAIN_KINDS:
+        raise ValueError(f"rain must be one of {RAIN_KINDS}, got {rain!r}")
+    rng = np.random.default_rng(seed)
+    streaks: StreakParams | None = None
     det = HosDetector(detector_params(overrides))
     run = 0
     offset = 0.0  # seconds added to the timestamps of a pass after the first
@@ -87,7 +115,15 @@ def evaluate(
             for frame in reader:
                 if max_frames and res.frames >= max_frames:
                     break
-                r = det.process(frame.gray, frame.t_s + offset)
+                gray = frame.gray
+                drawn = rain is not None and frame.t_s >= rain_from_s
+                if drawn:
+                    if streaks is None or gray.shape != (res.size[1], res.size[0]):
+                        h, w = gray.shape
+                        streaks = rain_streaks(rain, w, h, mu_deg=rain_mu_deg)
+                    layer = render_streaks(gray.shape, streaks, rng).layer
+                    gray = np.clip(gray + layer, 0, 255).astype(np.uint8)
+                r = det.process(gray, frame.t_s + offset)
                 end = frame.t_s + offset + step
                 res.frames += 1
                 if not last or (passes == 1 and res.frames <= SETTLE):
@@ -103,6 +139,15 @@ def evaluate(
                     part = res.parts.setdefault(int(frame.t_s // part_s), [0, 0])
                     part[0] += judged
                     part[1] += said
+                if rain is not None:
+                    tally = None
+                    if not drawn:
+                        tally = res.before_drawn
+                    elif frame.t_s >= rain_from_s + DRAWN_SETTLE_S:
+                        tally = res.with_drawn
+                    if tally is not None:
+                        tally[0] += judged
+                        tally[1] += said
         offset = end
     return res
 
@@ -127,6 +172,11 @@ def row(r: ClipResult) -> list[str]:
     ]
 
 
+def _share(tally: list[int]) -> str:
+    judged, said = tally
+    return f"{100 * said / judged:.1f} % ({said} of {judged})" if judged else "- (none judged)"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("clips", nargs="+", type=Path, metavar="CLIP")
@@ -138,6 +188,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--parts", type=float, default=0.0, metavar="SECONDS", help="rain %% per part of the clip"
     )
+    ap.add_argument(
+        "--draw-rain",
+        choices=RAIN_KINDS,
+        default=None,
+        metavar="KIND",
+        help=f"draw the benchmark's rain over the frames: one of {', '.join(RAIN_KINDS)}",
+    )
+    ap.add_argument(
+        "--rain-from", type=float, default=0.0, metavar="SECONDS", help="drawn rain from then on"
+    )
+    ap.add_argument(
+        "--rain-mu", type=float, default=85.0, metavar="DEG", help="the drawn rain's orientation"
+    )
     add_set_option(ap)
     args = ap.parse_args(argv)
     started = time.perf_counter()
@@ -146,7 +209,14 @@ def main(argv: list[str] | None = None) -> int:
         try:
             results.append(
                 evaluate(
-                    path, tuple(args.set), args.max_frames, passes=args.passes, part_s=args.parts
+                    path,
+                    tuple(args.set),
+                    args.max_frames,
+                    passes=args.passes,
+                    part_s=args.parts,
+                    rain=args.draw_rain,
+                    rain_from_s=args.rain_from,
+                    rain_mu_deg=args.rain_mu,
                 )
             )
         except InputError as exc:
@@ -162,6 +232,13 @@ def main(argv: list[str] | None = None) -> int:
                     for k, (judged, said) in sorted(r.parts.items())
                 )
                 print(f"{r.name}, rain % of the judged frames of each {args.parts:g} s: {parts}")
+        if args.draw_rain:
+            for r in results:
+                print(
+                    f"{r.name}, {args.draw_rain} rain drawn from {args.rain_from:g} s: "
+                    f"said rain before it on {_share(r.before_drawn)} of the judged frames, "
+                    f"from {DRAWN_SETTLE_S:g} s after it began on {_share(r.with_drawn)}"
+                )
     print(f"{len(results)} clips in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if failed else 0
 

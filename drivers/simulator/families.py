@@ -21,7 +21,16 @@ import numpy as np
 from .precipitation import SnowParams, StreakParams
 from .scene import Scene, SceneParams
 
-__all__ = ["CONDITIONS", "SPLITS", "SceneCase", "case_frames", "sample_case", "sample_cases"]
+__all__ = [
+    "CONDITIONS",
+    "RAIN_KINDS",
+    "SPLITS",
+    "SceneCase",
+    "case_frames",
+    "rain_streaks",
+    "sample_case",
+    "sample_cases",
+]
 
 #: Weather conditions: clear, rain from drizzle-like to heavy, snow, and clear -> rain -> clear.
 CONDITIONS = ("clear", "drizzle", "light", "moderate", "heavy", "snow", "transition")
@@ -88,6 +97,19 @@ _RAIN = {
     "moderate": StreakParams(count=350, brightness=40.0),
     "heavy": StreakParams(count=1200, brightness=45.0, length_px=16.0),
 }
+#: The benchmark's kinds of rain, each for :func:`rain_streaks`.
+RAIN_KINDS = tuple(_RAIN)
+
+
+def rain_streaks(kind: str, width: int, height: int, *, mu_deg: float = 90.0) -> StreakParams:
+    """The benchmark's rain of ``kind`` (one of :data:`RAIN_KINDS`) for a ``width`` x
+    ``height`` frame, falling at ``mu_deg``: its streak count is for 640x360, so the same rain
+    over another frame size draws as many streaks per pixel."""
+    if kind not in _RAIN:
+        raise ValueError(f"rain must be one of {RAIN_KINDS}, got {kind!r}")
+    area = width * height / (640 * 360)
+    streaks = _RAIN[kind]
+    return replace(streaks, mu_deg=mu_deg, count=max(1, round(streaks.count * area)))
 
 
 @dataclass(frozen=True)
@@ -179,8 +201,8 @@ def sample_case(
     # draws as many streaks per pixel.
     area = width * height / (640 * 360)
     if condition in _RAIN or condition == "transition":
-        streaks = _RAIN.get(condition, _RAIN["moderate"])
-        streaks = replace(streaks, mu_deg=mu, count=max(1, round(streaks.count * area)))
+        kind = condition if condition in _RAIN else "moderate"
+        streaks = rain_streaks(kind, int(width), int(height), mu_deg=mu)
         density = float(streaks.count) / area
         schedule = None
         if condition == "transition":
