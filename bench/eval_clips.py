@@ -36,9 +36,8 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from eval_scenes import SETTLE, add_set_option, detector_params, format_table
-
 import numpy as np
+from eval_scenes import SETTLE, add_set_option, detector_params, format_table
 
 from drivers.errors import InputError
 from drivers.simulator import StreakParams, render_streaks
