@@ -16,12 +16,14 @@ pass only, all of it: the detector has then learnt the whole clip (its backgroun
 map, the rates of what recurs), which tells a part it misses for want of learning from a part
 it misses for want of evidence. ``--parts S`` adds the share said rain in each S seconds.
 
-``--draw-rain KIND`` draws the benchmark's rain of that kind (drizzle, light, moderate or
-heavy: ``drivers.simulator.families.rain_streaks``, falling at ``--rain-mu`` degrees) over
-every frame from ``--rain-from`` seconds on, after decoding: synthetic rain over a real
-background, a check of the detector on views that no renderer of ours drew. The report then
-adds, for each clip, the share said rain before the drawn rain and from a second after it
-began.
+``--draw KIND`` draws the benchmark's precipitation of that kind over every frame from
+``--draw-from`` seconds on, after decoding: rain (drizzle, light, moderate or heavy:
+``drivers.simulator.families.rain_streaks``, falling at ``--draw-mu`` degrees), snow drawn
+anew in every frame (``snow``) or snow whose flakes persist and fall 3 pixels a frame at 480
+rows (``falling-snow``), at the benchmark's density. Synthetic precipitation over a real
+background: a check of the detector on views that no renderer of ours drew. The report then
+adds, for each clip, the share said rain before the drawn precipitation and from a second
+after it began.
 """
 
 from __future__ import annotations
@@ -30,7 +32,7 @@ import argparse
 import sys
 import time
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -40,13 +42,63 @@ import numpy as np
 from eval_scenes import SETTLE, add_set_option, detector_params, format_table
 
 from drivers.errors import InputError
-from drivers.simulator import StreakParams, render_streaks
+from drivers.simulator import (
+    SnowParams,
+    composite,
+    render_falling_snow,
+    render_snow,
+    render_streaks,
+)
 from drivers.simulator.families import RAIN_KINDS, rain_streaks
 from drivers.video import open_video
 from hos import HosDetector, State
 
-#: With drawn rain, the frames of its first second are neither before it nor counted with it.
+#: With drawn precipitation, the frames of its first second are neither before it nor
+#: counted with it.
 DRAWN_SETTLE_S = 1.0
+#: What ``--draw`` can draw.
+DRAWN_KINDS = (*RAIN_KINDS, "snow", "falling-snow")
+#: Falling snow's mean fall, pixels a frame at 480 rows (the benchmark draws 1.5-7).
+_FALL_PX = 3.0
+
+
+class Drawn:
+    """Precipitation of ``kind`` (one of :data:`DRAWN_KINDS`) drawn over frames, at the
+    benchmark's density for the frame's size, from a generator seeded with ``seed``."""
+
+    def __init__(self, kind: str, *, mu_deg: float = 85.0, seed: int = 0) -> None:
+        if kind not in DRAWN_KINDS:
+            raise ValueError(f"what is drawn must be one of {DRAWN_KINDS}, got {kind!r}")
+        self.kind = kind
+        self.mu_deg = mu_deg
+        self.seed = seed
+        self._rng = np.random.default_rng(seed)
+        self._shape: tuple[int, int] | None = None
+        self._params = None
+        self._frames = 0
+
+    def __call__(self, gray: np.ndarray) -> np.ndarray:
+        """``gray`` (uint8) with the next frame of precipitation over it."""
+        h, w = gray.shape
+        if self._shape != (h, w):
+            self._shape = (h, w)
+            self._frames = 0
+            if self.kind in RAIN_KINDS:
+                self._params = rain_streaks(self.kind, w, h, mu_deg=self.mu_deg)
+            else:
+                snow = SnowParams(mu_deg=self.mu_deg)
+                count = max(1, round(snow.count * w * h / (640 * 360)))
+                fall = _FALL_PX * h / 480 if self.kind == "falling-snow" else 0.0
+                self._params = replace(snow, count=count, fall_px=fall)
+        p = self._params
+        if self.kind in RAIN_KINDS:
+            layer = render_streaks((h, w), p, self._rng)
+        elif self.kind == "snow":
+            layer = render_snow((h, w), p, self._rng)
+        else:
+            layer = render_falling_snow((h, w), p, self.seed, self._frames, pool=2 * p.count + 64)
+        self._frames += 1
+        return composite(gray, layer)
 
 
 @dataclass
@@ -63,10 +115,12 @@ class ClipResult:
     longest: int = 0
     #: per part of the clip (``--parts``): [judged, said rain] frames
     parts: dict[int, list[int]] = field(default_factory=dict)
-    #: with drawn rain (``--draw-rain``): [judged, said rain] frames before it, and from
+    #: with drawn precipitation (``--draw``): [judged, said rain] frames before it, and from
     #: ``DRAWN_SETTLE_S`` after it began
     before_drawn: list[int] = field(default_factory=lambda: [0, 0])
     with_drawn: list[int] = field(default_factory=lambda: [0, 0])
+    #: the camera's precipitation type on the judged frames counted in ``with_drawn``
+    drawn_types: Counter = field(default_factory=Counter)
 
     @property
     def counted(self) -> int:
@@ -84,9 +138,9 @@ def evaluate(
     *,
     passes: int = 1,
     part_s: float = 0.0,
-    rain: str | None = None,
-    rain_from_s: float = 0.0,
-    rain_mu_deg: float = 85.0,
+    draw: str | None = None,
+    draw_from_s: float = 0.0,
+    draw_mu_deg: float = 85.0,
     seed: int = 0,
 ) -> ClipResult:
     """Run the detector over the clip at ``path``, decoded as ``weatherd`` decodes it (PyAV,
@@ -94,14 +148,11 @@ def evaluate(
     raises :class:`drivers.errors.InputError` when it cannot be read. With ``passes`` > 1 the
     clip is played that many times to one detector and the last pass is counted, whole;
     ``part_s`` > 0 also counts each part of that many seconds (``ClipResult.parts``).
-    ``rain``: one of ``RAIN_KINDS``, drawn over the decoded frames from ``rain_from_s`` on
-    (the streaks from a generator seeded with ``seed``)."""
+    ``draw``: one of ``DRAWN_KINDS``, drawn over the decoded frames from ``draw_from_s`` on
+    (:class:`Drawn`, seeded with ``seed``)."""
     if passes < 1:
         raise ValueError("passes must be >= 1")
-    if rain is not None and rain not in RAIN_KINDS:
-        raise ValueError(f"rain must be one of {RAIN_KINDS}, got {rain!r}")
-    rng = np.random.default_rng(seed)
-    streaks: StreakParams | None = None
+    drawer = None if draw is None else Drawn(draw, mu_deg=draw_mu_deg, seed=seed)
     det = HosDetector(detector_params(overrides))
     run = 0
     offset = 0.0  # seconds added to the timestamps of a pass after the first
@@ -115,13 +166,9 @@ def evaluate(
                 if max_frames and res.frames >= max_frames:
                     break
                 gray = frame.gray
-                drawn = rain is not None and frame.t_s >= rain_from_s
+                drawn = drawer is not None and frame.t_s >= draw_from_s
                 if drawn:
-                    if streaks is None or gray.shape != (res.size[1], res.size[0]):
-                        h, w = gray.shape
-                        streaks = rain_streaks(rain, w, h, mu_deg=rain_mu_deg)
-                    layer = render_streaks(gray.shape, streaks, rng).layer
-                    gray = np.clip(gray + layer, 0, 255).astype(np.uint8)
+                    gray = drawer(gray)
                 r = det.process(gray, frame.t_s + offset)
                 end = frame.t_s + offset + step
                 res.frames += 1
@@ -138,12 +185,14 @@ def evaluate(
                     part = res.parts.setdefault(int(frame.t_s // part_s), [0, 0])
                     part[0] += judged
                     part[1] += said
-                if rain is not None:
+                if drawer is not None:
                     tally = None
                     if not drawn:
                         tally = res.before_drawn
-                    elif frame.t_s >= rain_from_s + DRAWN_SETTLE_S:
+                    elif frame.t_s >= draw_from_s + DRAWN_SETTLE_S:
                         tally = res.with_drawn
+                        if judged:
+                            res.drawn_types[str(r.precipitation_type)] += 1
                     if tally is not None:
                         tally[0] += judged
                         tally[1] += said
@@ -188,17 +237,17 @@ def main(argv: list[str] | None = None) -> int:
         "--parts", type=float, default=0.0, metavar="SECONDS", help="rain %% per part of the clip"
     )
     ap.add_argument(
-        "--draw-rain",
-        choices=RAIN_KINDS,
+        "--draw",
+        choices=DRAWN_KINDS,
         default=None,
         metavar="KIND",
-        help=f"draw the benchmark's rain over the frames: one of {', '.join(RAIN_KINDS)}",
+        help=f"draw the benchmark's precipitation over the frames: {', '.join(DRAWN_KINDS)}",
     )
     ap.add_argument(
-        "--rain-from", type=float, default=0.0, metavar="SECONDS", help="drawn rain from then on"
+        "--draw-from", type=float, default=0.0, metavar="SECONDS", help="drawn from then on"
     )
     ap.add_argument(
-        "--rain-mu", type=float, default=85.0, metavar="DEG", help="the drawn rain's orientation"
+        "--draw-mu", type=float, default=85.0, metavar="DEG", help="its orientation, degrees"
     )
     add_set_option(ap)
     args = ap.parse_args(argv)
@@ -213,9 +262,9 @@ def main(argv: list[str] | None = None) -> int:
                     args.max_frames,
                     passes=args.passes,
                     part_s=args.parts,
-                    rain=args.draw_rain,
-                    rain_from_s=args.rain_from,
-                    rain_mu_deg=args.rain_mu,
+                    draw=args.draw,
+                    draw_from_s=args.draw_from,
+                    draw_mu_deg=args.draw_mu,
                 )
             )
         except InputError as exc:
@@ -231,12 +280,14 @@ def main(argv: list[str] | None = None) -> int:
                     for k, (judged, said) in sorted(r.parts.items())
                 )
                 print(f"{r.name}, rain % of the judged frames of each {args.parts:g} s: {parts}")
-        if args.draw_rain:
+        if args.draw:
             for r in results:
                 print(
-                    f"{r.name}, {args.draw_rain} rain drawn from {args.rain_from:g} s: "
+                    f"{r.name}, {args.draw} drawn from {args.draw_from:g} s: "
                     f"said rain before it on {_share(r.before_drawn)} of the judged frames, "
-                    f"from {DRAWN_SETTLE_S:g} s after it began on {_share(r.with_drawn)}"
+                    f"from {DRAWN_SETTLE_S:g} s after it began on {_share(r.with_drawn)}; "
+                    "typed "
+                    + (", ".join(f"{k} {v}" for k, v in r.drawn_types.most_common()) or "-")
                 )
     print(f"{len(results)} clips in {time.perf_counter() - started:.0f} s", file=sys.stderr)
     return 1 if failed else 0

@@ -82,24 +82,25 @@ def _clear_street(tmp_path, *, seed: int):
 
 
 def test_rain_drawn_over_a_clear_clip_is_told_apart_from_before_it(tmp_path, capsys) -> None:
-    """``--draw-rain``: the benchmark's light rain drawn from 4.8 s (frame 120) on. Before it
+    """``--draw``: the benchmark's light rain drawn from 4.8 s (frame 120) on. Before it
     no frame is said rain, from a second after it began (frame 145) nearly all are; the same
     clip without it says rain on no frame, so the drawn rain is what is seen."""
     path = _clear_street(tmp_path, seed=7)
     assert clips.evaluate(path).rain == 0
 
-    r = clips.evaluate(path, rain="light", rain_from_s=4.8)
+    r = clips.evaluate(path, draw="light", draw_from_s=4.8)
     assert r.before_drawn == [30, 0]  # frames 90-119, judged, none said rain
     judged, said = r.with_drawn
     assert judged == 55 and said >= 0.9 * judged
     assert r.rain >= said
+    assert r.drawn_types["rain"] >= 0.9 * judged and r.drawn_types["snow"] == 0
 
-    assert clips.main([str(path), "--draw-rain", "light", "--rain-from", "4.8"]) == 0
+    assert clips.main([str(path), "--draw", "light", "--draw-from", "4.8"]) == 0
     out, _ = capsys.readouterr()
-    assert "clear.avi, light rain drawn from 4.8 s: said rain before it on 0.0 % (0 of 30)" in out
+    assert "clear.avi, light drawn from 4.8 s: said rain before it on 0.0 % (0 of 30)" in out
 
-    with pytest.raises(ValueError, match="rain must be one of"):
-        clips.evaluate(path, rain="hail")
+    with pytest.raises(ValueError, match="must be one of"):
+        clips.evaluate(path, draw="hail")
 
 
 @pytest.mark.parametrize("name", ["motorway_clear_320x240.avi", "road_surface_clear_640x360.avi"])
@@ -107,7 +108,20 @@ def test_rain_drawn_over_real_clear_clips_is_seen(shared_fixtures, name) -> None
     """Synthetic rain over a real background (docs/figures.md, "Rain drawn over real clear
     clips"): the benchmark's light rain from 8 s on. No rain before it, rain on nine judged
     frames in ten or more from a second after it began (98 and 100 % when measured)."""
-    r = clips.evaluate(shared_fixtures / "video" / name, rain="light", rain_from_s=8.0)
+    r = clips.evaluate(shared_fixtures / "video" / name, draw="light", draw_from_s=8.0)
     assert r.before_drawn[0] > 100 and r.before_drawn[1] == 0
     judged, said = r.with_drawn
     assert judged > 100 and said >= 0.9 * judged
+
+
+@pytest.mark.parametrize("kind", ["snow", "falling-snow"])
+def test_snow_drawn_over_a_clear_clip_is_seen_and_typed_snow(tmp_path, kind) -> None:
+    """``--draw snow`` and ``falling-snow``: the benchmark's snow over a written clear street
+    from 4.8 s on is precipitation on nearly every judged frame from a second after it began,
+    and the camera types it snow, never rain."""
+    path = _clear_street(tmp_path, seed=8)
+    r = clips.evaluate(path, draw=kind, draw_from_s=4.8)
+    assert r.before_drawn[1] == 0
+    judged, said = r.with_drawn
+    assert judged == 55 and said >= 0.9 * judged
+    assert r.drawn_types["rain"] == 0 and r.drawn_types["snow"] >= 0.8 * judged
