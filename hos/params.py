@@ -353,8 +353,14 @@ class RobustnessParams:
     #: exposure ramp (auto-exposure easing over a second) kept the frame up to 3 % off the
     #: background, 4-5 grey levels, and every flat pixel's noise became a candidate.
     gain_tolerance: float = 0.01
-    #: Mean grey level of the region of interest under which the camera cannot see rain.
+    #: The camera cannot see rain when the region of interest is dark: when ``dark_share``
+    #: of it (its brightest part: the reduced image's grey levels at the ``1 - dark_share``
+    #: quantile) is under ``dark_level``. A lamp-lit street at night, mean grey 10, still
+    #: shows the rain in its light; a view with nothing lit does not (docs/method.md,
+    #: departure 26). ``dark_share = 1``: the whole view must be that dark, 0: the mean grey
+    #: level is compared (as before departure 26).
     dark_level: float = 20.0
+    dark_share: float = 0.1
     #: Beyond the paper: a blob whose pixels changed by less than this mean (grey levels) from
     #: frame to frame over the last ``stale_frames`` frames is a copy (a video encoder's
     #: skipped blocks keep a streak for frames after the drop has gone) and does not vote; a
@@ -420,6 +426,7 @@ class RobustnessParams:
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")
         _check(0 <= self.dark_level < 255, "dark_level", "must be in [0, 255)")
+        _check(0 <= self.dark_share <= 1, "dark_share", "must be in [0, 1]")
         _check(0 < self.scene_change_fraction <= 1, "scene_change_fraction", "in (0, 1]")
         _check(self.merge_max_factor >= 1, "merge_max_factor", "must be >= 1")
         _check(self.traffic_cell >= 1, "traffic_cell", "must be >= 1")

@@ -284,6 +284,13 @@ class HosDetector:
         small = reduce(gray, self._scale)
         in_roi = small if self._roi_small is None else small[self._roi_small]
         brightness = float(in_roi.mean()) if in_roi.size else 0.0
+        lit = brightness
+        if rob.dark_share > 0 and in_roi.size:
+            # the grey level of the brightest dark_share of the view (departure 26); an order
+            # statistic by partition, a tenth of np.quantile's cost
+            values = in_roi.reshape(-1)
+            k = int((1.0 - rob.dark_share) * (values.size - 1))
+            lit = float(np.partition(values, k)[k])
         frame, corrected_small = self._compensate_exposure(gray, small)
         # 1b. camera motion (beyond the paper): a camera shaken by the wind is held still by
         # translating each frame back onto the reference before the background model sees it
@@ -324,7 +331,7 @@ class HosDetector:
         return Segmented(
             frame=self._index,
             t_s=float(t_s),
-            state=self._state(brightness),
+            state=self._state(lit),
             image=frame,
             foreground=foreground,
             small=corrected_small,
@@ -338,13 +345,13 @@ class HosDetector:
             residual=residual,
         )
 
-    def _state(self, brightness: float) -> str:
+    def _state(self, lit: float) -> str:
         rob = self.params.robustness
         if self._frames_seen <= rob.warmup_frames + self._segmenter.delay:
             return State.WARMING_UP
         if self._relearn > 0:
             return State.SCENE_CHANGE
-        if brightness < rob.dark_level:
+        if lit < rob.dark_level:
             return State.DARK
         return State.OK
 

@@ -790,3 +790,42 @@ def test_many_parallel_streaks_in_one_frame_are_rain(angle):
     frames, stay no rain (``test_one_orientation_repeated_is_not_rain``)."""
     assert _parallel_rain(24.0, angle=angle, n=40) > 0.9
     assert _parallel_rain(0.0, angle=angle, n=40) < 0.2
+
+
+def _night(dark_share: float, *, rain: bool) -> tuple[float, float]:
+    """A street at night, 320x240: a dark textured view (mean grey about 8) with a lamp's
+    pool of light over a sixth of it (grey 60-90), sensor noise 2; from frame 80, streaks
+    (25 grey levels) where the lamp lights the rain. Over frames 100-199: the share of frames
+    judged (``state`` ok) and the share said rain."""
+    rng = np.random.default_rng(9)
+    dark = cv2.GaussianBlur(rng.uniform(2, 14, (240, 320)).astype(np.float32), (0, 0), 3)
+    yy, xx = np.mgrid[0:240, 0:320]
+    pool = np.exp(-(((xx - 200) / 60.0) ** 2 + ((yy - 150) / 45.0) ** 2))
+    scene = dark + 80.0 * pool.astype(np.float32)
+    lamp = pool > 0.35  # where the rain is lit
+    det = HosDetector(DetectorParams.from_dict({"robustness": {"dark_share": dark_share}}))
+    streaks = StreakParams(count=200, brightness=25.0, length_px=10.0, mu_deg=85.0)
+    judged, said = [], []
+    for i in range(200):
+        f = scene + rng.normal(0, 2.0, scene.shape).astype(np.float32)
+        if rain and i >= 80:
+            f += render_streaks((240, 320), streaks, rng).layer * lamp
+        r = det.process(np.clip(f, 0, 255).astype(np.uint8), i / 25)
+        if i >= 100:
+            judged.append(r.state == State.OK)
+            said.append(r.rain)
+    return float(np.mean(judged)), float(np.mean(said))
+
+
+def test_rain_in_a_lamps_light_at_night_is_judged():
+    """``robustness.dark_share`` (departure 26): a view whose mean grey level is 8 but whose
+    brightest tenth is lit is judged, and the rain in the lamp's light is seen; clear, the
+    same night says no rain. With the mean compared instead (0, as before) the camera says
+    ``dark`` on every frame and no rain. A view with nothing lit stays ``dark``
+    (``test_dark_scene_says_dark``)."""
+    judged, said = _night(0.1, rain=True)
+    assert judged > 0.95 and said > 0.9
+    judged, said = _night(0.1, rain=False)
+    assert judged > 0.95 and said == 0.0
+    judged, said = _night(0.0, rain=True)
+    assert judged == 0.0 and said == 0.0
