@@ -32,7 +32,7 @@ import argparse
 import sys
 import time
 from collections import Counter
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -42,14 +42,8 @@ import numpy as np
 from eval_scenes import SETTLE, add_set_option, detector_params, format_table
 
 from drivers.errors import InputError
-from drivers.simulator import (
-    SnowParams,
-    composite,
-    render_falling_snow,
-    render_snow,
-    render_streaks,
-)
-from drivers.simulator.families import RAIN_KINDS, rain_streaks
+from drivers.simulator import composite, render_falling_snow, render_snow, render_streaks
+from drivers.simulator.families import RAIN_KINDS, rain_streaks, snow_flakes
 from drivers.video import open_video
 from hos import HosDetector, State
 
@@ -86,10 +80,8 @@ class Drawn:
             if self.kind in RAIN_KINDS:
                 self._params = rain_streaks(self.kind, w, h, mu_deg=self.mu_deg)
             else:
-                snow = SnowParams(mu_deg=self.mu_deg)
-                count = max(1, round(snow.count * w * h / (640 * 360)))
-                fall = _FALL_PX * h / 480 if self.kind == "falling-snow" else 0.0
-                self._params = replace(snow, count=count, fall_px=fall)
+                fall = _FALL_PX if self.kind == "falling-snow" else 0.0
+                self._params = snow_flakes(w, h, fall_px=fall, mu_deg=self.mu_deg)
         p = self._params
         if self.kind in RAIN_KINDS:
             layer = render_streaks((h, w), p, self._rng)

@@ -30,6 +30,7 @@ __all__ = [
     "rain_streaks",
     "sample_case",
     "sample_cases",
+    "snow_flakes",
 ]
 
 #: Weather conditions: clear, rain from drizzle-like to heavy, snow, and clear -> rain -> clear.
@@ -110,6 +111,17 @@ def rain_streaks(kind: str, width: int, height: int, *, mu_deg: float = 90.0) ->
     area = width * height / (640 * 360)
     streaks = _RAIN[kind]
     return replace(streaks, mu_deg=mu_deg, count=max(1, round(streaks.count * area)))
+
+
+def snow_flakes(
+    width: int, height: int, *, fall_px: float = 0.0, mu_deg: float = 90.0
+) -> SnowParams:
+    """The benchmark's snow for a ``width`` x ``height`` frame: its flake count is for 640x360
+    (as many flakes per pixel at any size); ``fall_px`` > 0, flakes that persist and fall that
+    many pixels a frame at 480 rows (scaled with the height); 0, drawn anew in every frame."""
+    flakes = SnowParams(mu_deg=mu_deg)
+    area = width * height / (640 * 360)
+    return replace(flakes, count=max(1, round(flakes.count * area)), fall_px=fall_px * height / 480)
 
 
 @dataclass(frozen=True)
@@ -211,16 +223,16 @@ def sample_case(
             schedule = [0.0] * third + [1.0] * third + [0.0]
         params = replace(params, rain=streaks, schedule=schedule)
     elif condition == "snow":
-        flakes = SnowParams()
         # ... and so does the falling snow (flakes that persist from frame to frame)
         falling = np.random.default_rng(
             [seed, CONDITIONS.index(condition), CAMERAS.index(camera), 3]
         )
+        fall = 0.0
         if falling.random() < float(r["falling_snow"]):
             lo, hi = r["fall_px"]
-            flakes = replace(flakes, fall_px=float(falling.uniform(lo, hi)) * height / 480)
-        params = replace(params, snow=replace(flakes, count=max(1, round(flakes.count * area))))
-        density = float(flakes.count)
+            fall = float(falling.uniform(lo, hi))
+        params = replace(params, snow=snow_flakes(int(width), int(height), fall_px=fall))
+        density = float(SnowParams().count)
     reaim = None
     pan = (0.0, 0.0)
     roll = 0.0

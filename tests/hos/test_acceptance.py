@@ -629,6 +629,24 @@ def _draw_segments(f, x, y, theta, *, half_length: float) -> None:
         cv2.line(f, p, q, 160.0, 1)
 
 
+def _random_segments(
+    n: int, *, margin: float, mu_deg: float, spread_deg: float | None, half_length: float
+):
+    """A ``draw(frame, i, rng)`` for :func:`_said_over_texture`: ``n`` segments a frame at
+    random places at least ``margin`` pixels inside the 320x240 frame, their orientations
+    spread by ``spread_deg`` about ``mu_deg`` (uniform over 180 degrees for None)."""
+
+    def draw(f, i, rng):
+        x, y = rng.uniform(margin, 320 - margin, n), rng.uniform(margin, 240 - margin, n)
+        if spread_deg is None:
+            theta = rng.uniform(0, math.pi, n)
+        else:
+            theta = np.radians(rng.normal(mu_deg, spread_deg, n))
+        _draw_segments(f, x, y, theta, half_length=half_length)
+
+    return draw
+
+
 def _wide_population(places: float, *, gathered: bool) -> float:
     """35 short segments a frame whose orientations spread 30 degrees about the vertical (a
     snow-like population), over a still textured scene: dropped anywhere in the view (flakes)
@@ -660,15 +678,7 @@ def _short_streaks(corrected: bool, *, spread_deg: float | None) -> float:
     ``spread_deg`` about the vertical (uniform over 180 degrees for None), over a still
     textured scene: too few to fit alone, pooled over frames. The share of frames said rain."""
 
-    def draw(f, i, rng):
-        n = 6
-        x, y = rng.uniform(10, 310, n), rng.uniform(10, 230, n)
-        if spread_deg is None:
-            theta = rng.uniform(0, math.pi, n)
-        else:
-            theta = np.radians(rng.normal(90, spread_deg, n))
-        _draw_segments(f, x, y, theta, half_length=1.5)
-
+    draw = _random_segments(6, margin=10, mu_deg=90, spread_deg=spread_deg, half_length=1.5)
     return _said_over_texture({"kernel_corrected": corrected}, draw, seed=1)
 
 
@@ -710,15 +720,7 @@ def _long_streaks(thin_factor: float, *, spread_deg: float | None) -> float:
     still textured 320x240 scene: rain seen through a long exposure, each streak longer than
     the size rule's bound (25 pixels at 240 rows). The share of frames said rain."""
 
-    def draw(f, i, rng):
-        n = 12
-        x, y = rng.uniform(20, 300, n), rng.uniform(20, 220, n)
-        if spread_deg is None:
-            theta = rng.uniform(0, math.pi, n)
-        else:
-            theta = np.radians(rng.normal(80, spread_deg, n))
-        _draw_segments(f, x, y, theta, half_length=15.0)
-
+    draw = _random_segments(12, margin=20, mu_deg=80, spread_deg=spread_deg, half_length=15.0)
     return _said_over_texture({}, draw, seed=6, segmentation={"thin_factor": thin_factor})
 
 
