@@ -15,6 +15,7 @@ moved (``robustness.motion_frame_px``)."""
 from __future__ import annotations
 
 import threading
+from typing import Literal
 
 import cv2
 import numpy as np
@@ -32,7 +33,7 @@ _ROUNDS = 3  # of iteratively reweighted least squares
 # fastmath lets LLVM reorder the float sums into SIMD lanes; not "nnan"/"ninf": the code
 # compares with np.inf.
 @_njit(fastmath={"reassoc", "contract"})
-def _fit_translation(prev, cur, significance, terms, residuals, exclude):  # pragma: no cover
+def _fit_translation(prev, cur, other, significance, terms, residuals, exclude):  # pragma: no cover
     # terms: (3, h - 2b, w - 2b) float32 and residuals: ((h - 2b) * (w - 2b),) float64, scratch
     h, w = prev.shape
     b = _BORDER
@@ -40,12 +41,15 @@ def _fit_translation(prev, cur, significance, terms, residuals, exclude):  # pra
     if n == 0:
         return 0.0, 0.0  # nothing inside the border (the reference: textureless)
     # 1. The terms of the optical-flow constraint inside the border, ix dx + iy dy + it = 0:
-    #    the gradient of the mean of the two frames (the Sobel of their sum s, / 16) and the
-    #    time derivative; and the mean gradient energy.
+    #    the gradient of the mean of prev and other (the Sobel of their sum s, / 16; other is
+    #    cur, or prev itself for the gradient of prev alone) and the time derivative; and the
+    #    mean gradient energy.
     ix, iy, it = terms[0], terms[1], terms[2]
     g2_sum = 0.0
     for y in range(b, h - b):
-        p0, p1, p2, c0, c1, c2 = prev[y - 1], prev[y], prev[y + 1], cur[y - 1], cur[y], cur[y + 1]
+        p0, p1, p2 = prev[y - 1], prev[y], prev[y + 1]
+        c0, c1, c2 = other[y - 1], other[y], other[y + 1]
+        c_row = cur[y]
         ix_row, iy_row, it_row = ix[y - b], iy[y - b], it[y - b]
         ex_row = exclude[y]
         for i in range(w - 2 * b):  # (rows and a non-negative index: SIMD loads and stores)
@@ -60,7 +64,7 @@ def _fit_translation(prev, cur, significance, terms, residuals, exclude):  # pra
             gy *= keep
             ix_row[i] = gx
             iy_row[i] = gy
-            it_row[i] = (c1[x] - p1[x]) * keep
+            it_row[i] = (c_row[x] - p1[x]) * keep
             g2_sum += gx * gx + gy * gy
     ix, iy, it = ix.reshape(n), iy.reshape(n), it.reshape(n)
     g2_mean = g2_sum / n
@@ -142,6 +146,7 @@ def global_translation_jit(
     *,
     significance: float = 4.0,
     exclude: np.ndarray | None = None,
+    gradient: Literal["mean", "previous"] = "mean",
 ) -> tuple[float, float]:
     """Translation (dx, dy) in pixels of ``current`` relative to ``previous``, compiled.
 
@@ -154,6 +159,8 @@ def global_translation_jit(
         to float32
     significance : a shift is reported only when it is this many standard errors from zero
     exclude : (h, w) bool or uint8, optional; nonzero pixels take no part in the fit
+    gradient : ``"mean"`` (of the two images) or ``"previous"`` (``previous`` alone), as in
+        :func:`hos.motion.global_translation`
 
     Returns
     -------
@@ -161,7 +168,11 @@ def global_translation_jit(
     monotone (an under-estimate) above; (0, 0) when not significant.
     """
     if not ENABLED:
-        return global_translation(previous, current, significance=significance, exclude=exclude)
+        return global_translation(
+            previous, current, significance=significance, exclude=exclude, gradient=gradient
+        )
+    if gradient not in ("mean", "previous"):
+        raise ValueError(f'gradient must be "mean" or "previous", got {gradient!r}')
     previous = np.asarray(previous, dtype=np.float32)
     current = np.asarray(current, dtype=np.float32)
     if previous.ndim != 2 or previous.shape != current.shape:
@@ -179,5 +190,6 @@ def global_translation_jit(
         exclude = exclude.view(np.uint8) if exclude.dtype == np.bool_ else exclude.astype(np.uint8)
     cv2.GaussianBlur(previous, (5, 5), 1.0, dst=prev)
     cv2.GaussianBlur(current, (5, 5), 1.0, dst=cur)
-    dx, dy = _fit_translation(prev, cur, float(significance), terms, residuals, exclude)
+    other = prev if gradient == "previous" else cur
+    dx, dy = _fit_translation(prev, cur, other, float(significance), terms, residuals, exclude)
     return float(dx), float(dy)

@@ -15,6 +15,8 @@ about a millisecond at 1920x1080.
 
 from __future__ import annotations
 
+from typing import Literal
+
 import cv2
 import numpy as np
 
@@ -56,6 +58,7 @@ def global_translation(
     *,
     significance: float = 4.0,
     exclude: np.ndarray | None = None,
+    gradient: Literal["mean", "previous"] = "mean",
 ) -> tuple[float, float]:
     """Translation (dx, dy) in pixels of ``current`` relative to ``previous``.
 
@@ -66,6 +69,11 @@ def global_translation(
     significance : a shift is reported only when it is this many standard errors from zero
     exclude : (h, w) bool or uint8, optional; nonzero pixels take no part in the fit (what the
         background model saw moving: vehicles, headlights and their reflections, streaks)
+    gradient : ``"mean"``, the gradient of the mean of the two images (symmetric: the most
+        accurate when both show the same texture); ``"previous"``, that of ``previous`` alone
+        (Lucas-Kanade's template, as in the inverse compositional form of Baker and Matthews,
+        IJCV 2004): give the reference there, and what only ``current`` shows (falling
+        flakes, streaks, vehicles) adds residual, never gradient, to the fit
 
     Returns
     -------
@@ -74,9 +82,11 @@ def global_translation(
     """
     prev = cv2.GaussianBlur(previous, (5, 5), 1.0)
     cur = cv2.GaussianBlur(current, (5, 5), 1.0)
-    mean = 0.5 * (prev + cur)
-    ix = cv2.Sobel(mean, cv2.CV_32F, 1, 0, ksize=3) / 8.0
-    iy = cv2.Sobel(mean, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    if gradient not in ("mean", "previous"):
+        raise ValueError(f'gradient must be "mean" or "previous", got {gradient!r}')
+    textured = prev if gradient == "previous" else 0.5 * (prev + cur)
+    ix = cv2.Sobel(textured, cv2.CV_32F, 1, 0, ksize=3) / 8.0
+    iy = cv2.Sobel(textured, cv2.CV_32F, 0, 1, ksize=3) / 8.0
     it = cur - prev
     b = 4  # ignore the border, where the blur and the Sobel see the padding
     ix, iy, it = ix[b:-b, b:-b].ravel(), iy[b:-b, b:-b].ravel(), it[b:-b, b:-b].ravel()

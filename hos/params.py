@@ -314,6 +314,18 @@ class RobustnessParams:
     #: sway of a pixel peaks at 2-3 px); a frame offset by more carries no rain evidence: its
     #: edges are in the foreground.
     reference_frames: int = 100
+    #: How the camera offset is fitted (departure 27). Two linearised fits of the optical
+    #: flow constraint can be made against the reference: on the gradients of the mean of the
+    #: reference and the frame (symmetric; the only fit before departure 27), or on the
+    #: reference's alone (Lucas-Kanade's template, as in the inverse compositional form).
+    #: Each reads motion that is not there in its own way: the symmetric fit follows texture
+    #: that only the frame shows (flakes falling together over a plain view, where they are
+    #: the only texture: a camera being re-aimed), the template fit magnifies texture that the
+    #: reference holds only faintly (a trail at a tenth of the frame's contrast reads ten times
+    #: its move). Neither shrinks a real offset: on a shifted view both are right to about
+    #: 0.1 px. ``"shorter"`` (the default) makes both and keeps the shorter offset (the second
+    #: only when the first is not zero); ``"reference"`` or ``"mean"``: that fit alone.
+    motion_gradient: Literal["shorter", "reference", "mean"] = "shorter"
     #: Beyond the paper: what moves often in place (a tree's crown in the wind, a flag, a
     #: busy lane) takes no part in the camera-offset fit either. A reduced pixel in the
     #: background model's foreground on more than ``max(mover_rate, mover_ratio * median)`` of
@@ -412,6 +424,11 @@ class RobustnessParams:
         _check(0 < self.persistence_floor <= 1, "persistence_floor", "must be in (0, 1]")
         _check(self.persistence_ratio > 0, "persistence_ratio", "must be > 0")
         _check(self.reference_frames >= 1, "reference_frames", "must be >= 1")
+        _check(
+            self.motion_gradient in ("shorter", "reference", "mean"),
+            "motion_gradient",
+            'must be "shorter", "reference" or "mean"',
+        )
         _check(self.mover_rate >= 0, "mover_rate", "must be >= 0")
         _check(self.mover_ratio >= 0, "mover_ratio", "must be >= 0")
         _check(self.mover_frames >= 1, "mover_frames", "must be >= 1")

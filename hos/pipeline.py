@@ -770,7 +770,8 @@ class HosDetector:
         What the background model saw moving in the last frame (vehicles, headlights and their
         reflections, streaks) takes no part in the fit, unless it covers most of the image (a
         camera being moved). A shift beyond half a reduced pixel is refined once (the
-        linearised fit under-estimates it).
+        linearised fit under-estimates it). Two fits, the shorter kept
+        (``robustness.motion_gradient``, departure 27).
         """
         rob = self.params.robustness
         if self._ref_small is None or self._ref_small.shape != small.shape:
@@ -781,11 +782,22 @@ class HosDetector:
         exclude = self._fg_small
         if self._movers is not None:
             exclude = self._movers if exclude is None else cv2.bitwise_or(exclude, self._movers)
-        dx, dy = translation(self._ref_small, small, exclude=exclude)
-        if math.hypot(dx, dy) > 0.5:
-            back = translate(small, -dx, -dy)
-            ddx, ddy = translation(self._ref_small, back, exclude=exclude)
-            dx, dy = dx + ddx, dy + ddy
+        # Departure 27: the fit on the reference's own gradients (the template), and on those
+        # of the mean of the reference and the frame; the shorter offset. Each reads motion
+        # that is not there in its own way (the symmetric fit follows texture only the frame
+        # has: flakes falling together over a plain view; the template magnifies texture the
+        # reference holds only faintly); neither shrinks a real offset.
+        dx = dy = math.inf
+        for gradient in _MOTION_FITS[rob.motion_gradient]:
+            fx, fy = translation(self._ref_small, small, exclude=exclude, gradient=gradient)
+            if math.hypot(fx, fy) > 0.5:
+                back = translate(small, -fx, -fy)
+                ddx, ddy = translation(self._ref_small, back, exclude=exclude, gradient=gradient)
+                fx, fy = fx + ddx, fy + ddy
+            if math.hypot(fx, fy) < math.hypot(dx, dy):
+                dx, dy = fx, fy
+            if dx == 0.0 and dy == 0.0:
+                break  # nothing shorter: the other fit is not needed
         # While the background model relearns the view (after a scene change: a knock, lights),
         # the reference learns as fast as the model: both must describe the same view.
         rate = _RELEARN_RATE if self._relearn > 0 else 1.0 / rob.reference_frames
@@ -965,6 +977,9 @@ class HosDetector:
 
 
 _CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
+#: The camera-offset fits of each ``robustness.motion_gradient``, as ``global_translation``'s
+#: ``gradient``: the reference's alone ("previous") and the mean of the reference and the frame.
+_MOTION_FITS = {"shorter": ("previous", "mean"), "reference": ("previous",), "mean": ("mean",)}
 #: Frames over which a pan is measured.
 _PAN_FRAMES = 5
 

@@ -12,7 +12,15 @@ import cv2
 import numpy as np
 import pytest
 
-from drivers.simulator import Scene, SceneParams, SnowParams, StreakParams, render_streaks
+from drivers.simulator import (
+    Scene,
+    SceneParams,
+    SnowParams,
+    StreakParams,
+    composite,
+    render_falling_snow,
+    render_streaks,
+)
 from hos import DetectorParams, HosDetector, State
 from hos.blobs import find_blobs
 from hos.histogram import hos_histogram
@@ -831,3 +839,39 @@ def test_rain_in_a_lamps_light_at_night_is_judged():
     assert judged > 0.95 and said == 0.0
     judged, said = _night(0.0, rain=True)
     assert judged == 0.0 and said == 0.0
+
+
+def _snow_over_plain_view(gradient: str, *, size=(480, 640), blur=1.5, frames=200):
+    """Snow whose flakes persist and fall 3 px a frame (at 480 rows) from frame 60 over a still,
+    nearly plain view (a random texture blurred by ``blur`` px, grey-level deviation 3), with
+    sensor noise: the shares of frames 100 on that are ``unstable`` and said precipitation."""
+    h, w = size
+    rng = np.random.default_rng(1)
+    view = cv2.GaussianBlur(rng.uniform(60, 120, (h, w)).astype(np.float32), (0, 0), blur)
+    snow = SnowParams(count=int(250 * w * h / (640 * 360)), blur_px=3.0, fall_px=3.0 * h / 480)
+    det = HosDetector(DetectorParams.from_dict({"robustness": {"motion_gradient": gradient}}))
+    unstable, said = [], []
+    for i in range(frames):
+        f = np.clip(view + rng.normal(0, 1.0, (h, w)), 0, 255).astype(np.uint8)
+        if i >= 60:
+            f = composite(f, render_falling_snow((h, w), snow, 7, i, pool=2 * snow.count + 64))
+        r = det.process(f, i / 25)
+        if i >= 100:
+            unstable.append(r.state == State.UNSTABLE)
+            said.append(r.rain)
+    return float(np.mean(unstable)), float(np.mean(said))
+
+
+@pytest.mark.parametrize("gradient", ["shorter", "mean"])
+def test_falling_snow_over_a_plain_view_is_not_camera_motion(gradient):
+    """``robustness.motion_gradient`` (departure 27): over a view with little texture of its
+    own, flakes falling together are the only texture a frame shows. The camera-offset fit on
+    the reference's gradients sees only the view's texture, and the still camera is judged
+    and says snow (``"shorter"``, the default, keeps that fit's offset). On the gradients of
+    the mean of the reference and the frame alone (``"mean"``, as before) the flakes' fall was
+    read as a camera being re-aimed: ``unstable`` on every frame."""
+    unstable, said = _snow_over_plain_view(gradient)
+    if gradient == "mean":
+        assert unstable > 0.9 and said < 0.1
+    else:
+        assert unstable < 0.05 and said > 0.9

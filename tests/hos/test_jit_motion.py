@@ -50,13 +50,14 @@ def _assert_agrees(previous, current, **kwargs):
     return result
 
 
+@pytest.mark.parametrize("gradient", ["mean", "previous"])
 @pytest.mark.parametrize("shape", SIZES)
 @pytest.mark.parametrize("dx,dy", SHIFTS)
-def test_agrees_with_reference_on_a_shifted_texture(shape, dx, dy):
+def test_agrees_with_reference_on_a_shifted_texture(shape, dx, dy, gradient):
     rng = np.random.default_rng(11)
     a = _texture(2, shape)
     b = _shifted(a, dx, dy) + rng.normal(0, 1.0, shape).astype(np.float32)
-    result = _assert_agrees(a, b)
+    result = _assert_agrees(a, b, gradient=gradient)
     if (dx, dy) != (0.0, 0.0):
         assert result != (0.0, 0.0)  # the whole fit ran, to the significance test
 
@@ -166,3 +167,29 @@ def test_agrees_with_reference_when_pixels_are_excluded(dx, dy):
     exclude[28:92, 38:122] = True
     for mask in (exclude, exclude.astype(np.uint8)):
         _assert_agrees(a, b, exclude=mask)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_agrees_with_reference_on_the_gradient_of_previous_alone(seed):
+    """``gradient="previous"`` (departure 27): the same fit as the reference over a plain view
+    with specks in one image only, and over a shifted texture with pixels left out."""
+    rng = np.random.default_rng(seed)
+    shape = (135, 240)
+    view = 100 + 3 * cv2.GaussianBlur(rng.normal(0, 1, shape).astype(np.float32), (0, 0), 1.5)
+    specks = np.zeros(shape, np.float32)
+    specks[rng.integers(8, 127, 300), rng.integers(8, 232, 300)] = 150
+    frame = view + cv2.GaussianBlur(specks, (0, 0), 1.2)
+    _assert_agrees(view, frame, gradient="previous")
+    _assert_agrees(frame, view, gradient="previous")
+    a = _texture(seed, shape)
+    b = _shifted(a, 0.6, -0.4) + rng.normal(0, 1.0, shape).astype(np.float32)
+    exclude = np.zeros(shape, bool)
+    exclude[30:90, 40:120] = True
+    ex, ey = _assert_agrees(a, b, gradient="previous", exclude=exclude)
+    assert ex == pytest.approx(0.6, abs=0.08) and ey == pytest.approx(-0.4, abs=0.08)
+
+
+def test_an_unknown_gradient_is_refused():
+    a = _texture(0, (68, 120))
+    with pytest.raises(ValueError, match="gradient"):
+        global_translation_jit(a, a, gradient="current")
