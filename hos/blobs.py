@@ -27,6 +27,8 @@ __all__ = [
     "find_blobs",
     "find_blobs_sparse",
     "label_candidates",
+    "local_rate_at",
+    "local_rate_map",
     "size_rule",
     "structure_rule",
     "thin_rule",
@@ -237,7 +239,13 @@ def blob_mean(values: np.ndarray, pixel_labels: np.ndarray, n_labels: int) -> np
 
 
 def structure_rule(
-    mean_rate: np.ndarray, *, global_rate: float, floor: float, ratio: float
+    mean_rate: np.ndarray,
+    *,
+    global_rate: float,
+    floor: float,
+    ratio: float,
+    local_rate: np.ndarray | None = None,
+    local_ratio: float = 0.0,
 ) -> np.ndarray:
     """(n_labels,) bool: blobs that recur in place (structure), from their pixels' rate.
 
@@ -248,8 +256,38 @@ def structure_rule(
     global_rate : mean candidate rate over the region of interest
     floor, ratio : a blob is structural when its mean pixel rate exceeds
         ``max(floor, ratio * global_rate)``
+    local_rate, local_ratio : optional (n_labels,) candidate rate of the part of the view
+        around each blob (:func:`local_rate_at`); a blob is then structural only if its rate
+        also exceeds ``local_ratio`` times that (departure 28): an edge recurs on its own
+        line, rain as often everywhere around it, however dense it is there
     """
     structural = mean_rate > max(floor, ratio * global_rate)  # NaN (no pixel) compares False
     if structural.size:
         structural[0] = False
+    if local_rate is not None and local_ratio > 0:
+        idx = np.flatnonzero(structural)
+        structural[idx] = mean_rate[idx] > local_ratio * local_rate[idx]
     return structural
+
+
+def local_rate_map(rate: CandidateRate, *, factor: int, window: int) -> np.ndarray:
+    """The candidate rate of the part of the view around each place: ``rate`` reduced by
+    ``factor`` (area means) and averaged over ``window`` x ``window`` reduced pixels (a box,
+    reflected at the borders). (ceil(H / factor), ceil(W / factor)) float32."""
+    values = rate.values()
+    h, w = values.shape
+    hs, ws = -(-h // factor), -(-w // factor)
+    small = cv2.resize(values, (ws, hs), interpolation=cv2.INTER_AREA)
+    return cv2.blur(small, (window, window), borderType=cv2.BORDER_REFLECT)
+
+
+def local_rate_at(local_map: np.ndarray, factor: int, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``local_map`` (from :func:`local_rate_map`) at the image points (x, y); NaN where a
+    point is not finite (label 0's centroid)."""
+    out = np.full(x.shape, np.nan, np.float32)
+    ok = np.isfinite(x) & np.isfinite(y)
+    hs, ws = local_map.shape
+    col = np.clip((x[ok] / factor).astype(np.intp), 0, ws - 1)
+    row = np.clip((y[ok] / factor).astype(np.intp), 0, hs - 1)
+    out[ok] = local_map[row, col]
+    return out

@@ -306,6 +306,15 @@ class RobustnessParams:
     #: persistence_ratio * global candidate rate)`` is structural noise, not rain.
     persistence_floor: float = 0.03
     persistence_ratio: float = 2.5
+    #: ... and more often than ``persistence_local_ratio`` times the candidate rate of the
+    #: part of the view around it (a box of ``persistence_local_px`` pixels at
+    #: ``segmentation.size_reference_height`` rows, scaled with the height) (departure 28).
+    #: An edge recurs on its own line and hardly beside it; rain seen only in one part of the
+    #: view (a lamp's pool of light at night, the dark trees behind a road) falls as often
+    #: everywhere in that part, however dense it is there, and compared with the whole view
+    #: alone was taken for structure. 0: the whole view only, as before.
+    persistence_local_ratio: float = 2.0
+    persistence_local_px: float = 32.0
     #: Camera offset from its learnt position (pixels at full resolution), measured on an image
     #: reduced to about 240 px wide against a reference that learns over ``reference_frames``
     #: (as fast as the background model while that relearns a view), leaving out what moved
@@ -423,6 +432,8 @@ class RobustnessParams:
         _check(self.persistence_frames >= 1, "persistence_frames", "must be >= 1")
         _check(0 < self.persistence_floor <= 1, "persistence_floor", "must be in (0, 1]")
         _check(self.persistence_ratio > 0, "persistence_ratio", "must be > 0")
+        _check(self.persistence_local_ratio >= 0, "persistence_local_ratio", "must be >= 0")
+        _check(self.persistence_local_px > 0, "persistence_local_px", "must be > 0")
         _check(self.reference_frames >= 1, "reference_frames", "must be >= 1")
         _check(
             self.motion_gradient in ("shorter", "reference", "mean"),

@@ -53,6 +53,8 @@ from .blobs import (
     blob_change,
     blob_mean_rate,
     find_blobs_sparse,
+    local_rate_at,
+    local_rate_map,
     size_rule,
     structure_rule,
     thin_rule,
@@ -201,6 +203,7 @@ class HosDetector:
         self._rate: CandidateRate | None = None
         self._photometric: PhotometricRule | None = None
         self._rate_frames = 0  # frames analysed since the rate map was (re)made
+        self._local_map: np.ndarray | None = None
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
@@ -479,11 +482,21 @@ class HosDetector:
             compiled=self.compiled,
         )
         mom = blobs.moments
+        local_rate = None
+        if rob.persistence_local_ratio > 0:
+            # the rate of the part of the view around each blob (departure 28): made again
+            # every _LOCAL_EVERY frames, a tenth of the rate's own time constant
+            if self._local_map is None or self._rate_frames % _LOCAL_EVERY == 1:
+                window = max(round(rob.persistence_local_px * at / _LOCAL_FACTOR), 1) | 1
+                self._local_map = local_rate_map(self._rate, factor=_LOCAL_FACTOR, window=window)
+            local_rate = local_rate_at(self._local_map, _LOCAL_FACTOR, mom.x0, mom.y0)
         structural = structure_rule(
             blob_mean_rate(blobs, self._rate),
             global_rate=self._rate.global_rate,
             floor=rob.persistence_floor,
             ratio=rob.persistence_ratio,
+            local_rate=local_rate,
+            local_ratio=rob.persistence_local_ratio,
         )
         # 3b. copies of the last frame (beyond the paper): a video encoder's skipped blocks keep
         # streaks for frames after the drops have gone; they vote no more than an edge that
@@ -727,6 +740,7 @@ class HosDetector:
         rob = self.params.robustness
         self._rate = CandidateRate(shape, rob.persistence_frames)
         self._rate_frames = 0
+        self._local_map = None  # the rate around each place (departure 28), made from _rate
         at = shape[0] / self.params.segmentation.size_reference_height
         self._traffic = TrafficMap(
             shape,
@@ -980,6 +994,10 @@ _CROSS = cv2.getStructuringElement(cv2.MORPH_CROSS, (3, 3))
 #: The camera-offset fits of each ``robustness.motion_gradient``, as ``global_translation``'s
 #: ``gradient``: the reference's alone ("previous") and the mean of the reference and the frame.
 _MOTION_FITS = {"shorter": ("previous", "mean"), "reference": ("previous",), "mean": ("mean",)}
+#: The rate around each place (departure 28) is made on the rate map reduced by this factor,
+#: again every _LOCAL_EVERY frames.
+_LOCAL_FACTOR = 4
+_LOCAL_EVERY = 10
 #: Frames over which a pan is measured.
 _PAN_FRAMES = 5
 
