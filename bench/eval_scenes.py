@@ -111,12 +111,17 @@ def latency(verdicts: list[bool], truth: list[bool], change: int, *, to: bool) -
 
 def detector_params(overrides: tuple[str, ...] = ()) -> DetectorParams:
     """The default parameters with ``section.key=value`` overrides (values as Python
-    literals: ``robustness.stabilise=False``, ``decision.measurement_blobs=0``)."""
+    literals: ``robustness.stabilise=False``, ``decision.measurement_blobs=0``; a bare word
+    is a string: ``robustness.motion_gradient=mean``)."""
     params = DetectorParams()
     for item in overrides:
         key, _, value = item.partition("=")
         section, _, name = key.partition(".")
-        sub = replace(getattr(params, section), **{name: ast.literal_eval(value)})
+        try:
+            parsed = ast.literal_eval(value)
+        except (ValueError, SyntaxError):
+            parsed = value
+        sub = replace(getattr(params, section), **{name: parsed})
         params = replace(params, **{section: sub})
     return params
 

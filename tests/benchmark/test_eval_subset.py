@@ -198,3 +198,19 @@ def test_visible_streaks_are_counted_against_a_dry_twin_of_the_same_scene() -> N
     noisy = replace(case, params=replace(case.params, sensor_noise=4.0))
     assert ev.visible_margin(noisy) == pytest.approx(12.0)  # 3 sigma of the sensor noise
     assert ev.visible_margin(case) == pytest.approx(3.0)  # eq. 8's c
+
+
+def test_overrides_are_literals_or_bare_words() -> None:
+    """``--set``: Python literals, and a bare word as a string; an unknown value is refused by
+    the parameters' own checks."""
+    p = ev.detector_params(
+        ("robustness.stabilise=False", "decision.min_blobs=10", "robustness.motion_gradient=mean")
+    )
+    assert p.robustness.stabilise is False and p.decision.min_blobs == 10
+    assert p.robustness.motion_gradient == "mean"
+    assert (
+        ev.detector_params(('robustness.motion_gradient="reference"',)).robustness.motion_gradient
+        == "reference"
+    )
+    with pytest.raises(ValueError, match="motion_gradient"):
+        ev.detector_params(("robustness.motion_gradient=sideways",))
