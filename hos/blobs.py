@@ -17,6 +17,7 @@ import numpy as np
 
 from . import _jit
 from .moments import BlobMoments, blob_moments
+from .motion import reduce
 
 __all__ = [
     "Blobs",
@@ -137,7 +138,7 @@ def thin_rule(
     pixel's own second moment), so its width is area / (sqrt(3) a)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         thin = area <= width * math.sqrt(3.0) * a  # NaN (no moments) compares False
-    return (area >= min_area) & (area <= max_area) & thin
+    return size_rule(area, min_area=min_area, max_area=max_area) & thin
 
 
 class CandidateRate:
@@ -272,12 +273,10 @@ def structure_rule(
 
 def local_rate_map(rate: CandidateRate, *, factor: int, window: int) -> np.ndarray:
     """The candidate rate of the part of the view around each place: ``rate`` reduced by
-    ``factor`` (area means) and averaged over ``window`` x ``window`` reduced pixels (a box,
-    reflected at the borders). (ceil(H / factor), ceil(W / factor)) float32."""
-    values = rate.values()
-    h, w = values.shape
-    hs, ws = -(-h // factor), -(-w // factor)
-    small = cv2.resize(values, (ws, hs), interpolation=cv2.INTER_AREA)
+    ``factor`` (:func:`hos.motion.reduce`, area means) and averaged over ``window`` x
+    ``window`` reduced pixels (a box, reflected at the borders). (H // factor, W // factor)
+    float32."""
+    small = reduce(rate.values(), factor)
     return cv2.blur(small, (window, window), borderType=cv2.BORDER_REFLECT)
 
 
