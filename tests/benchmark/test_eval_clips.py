@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 import sys
 
+import numpy as np
 import pytest
 
 from drivers.simulator import Scene, SceneParams
@@ -125,3 +126,24 @@ def test_snow_drawn_over_a_clear_clip_is_seen_and_typed_snow(tmp_path, kind) -> 
     judged, said = r.with_drawn
     assert judged == 55 and said >= 0.9 * judged
     assert r.drawn_types["rain"] == 0 and r.drawn_types["snow"] >= 0.8 * judged
+
+
+def test_upscale_enlarges_every_frame_to_the_rows_asked(tmp_path, capsys) -> None:
+    """``--upscale ROWS``: a soft camera's picture, the width in proportion and even."""
+    assert clips.upscaled_size((320, 240), 720) == (960, 720)
+    assert clips.upscaled_size((640, 360), 1080) == (1920, 1080)
+    assert clips.upscaled_size((321, 240), 480) == (642, 480)
+    gray = (np.arange(240 * 320) % 251).astype(np.uint8).reshape(240, 320)
+    big = clips.upscale(gray, 480)
+    assert big.shape == (480, 640) and big.dtype == np.uint8
+    # Lanczos keeps a flat picture flat and a smooth one close to its twice-sampled self
+    ramp = np.tile(np.linspace(20, 220, 320, dtype=np.float32), (240, 1)).astype(np.uint8)
+    assert np.abs(clips.upscale(ramp, 480)[::2, 40:-40:2].astype(int) - ramp[:, 20:-20]).max() <= 2
+
+    path = _street(tmp_path, seed=7)
+    r = clips.evaluate(path, max_frames=120, upscale_rows=480)
+    assert r.size == (640, 480) and r.frames == 120
+    assert clips.main([str(path), "--upscale", "480", "--max-frames", "100"]) == 0
+    assert "640x480" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        clips.main([str(path), "--upscale", "-1"])
