@@ -46,6 +46,9 @@ __all__ = ["FoundAgain"]
 _SLOW_STEP = 0.25
 #: Tangent of the half-angle of the down and up cones (as ``hos.fall.fall_pairs``).
 _CONE = 0.6
+#: The flicker measure's chance level: the last frame's voting points moved sideways by this
+#: many radii, found again as often as chance finds them.
+_CHANCE_SHIFT = 3.0
 
 
 class FoundAgain:
@@ -76,11 +79,23 @@ class FoundAgain:
         self._before = None  # the last frame's k-d tree (scipy), or None
         self._counts: deque[tuple[int, int]] = deque(maxlen=int(frames))
         self._down = self._up = 0
+        #: which of the last frame's points voted in its HOS (:meth:`voted`), or None
+        self._voted: np.ndarray | None = None
+        #: of the last frame's voting points, (how many this frame found again beyond
+        #: chance, how many there were) (:meth:`update`); None when there was none
+        self.flicker: tuple[float, int] | None = None
 
     def reset(self) -> None:
         self._before = None
         self._counts.clear()
         self._down = self._up = 0
+        self._voted = None
+        self.flicker = None
+
+    def voted(self, mask: np.ndarray) -> None:
+        """Which of the points of the last :meth:`update` voted in the frame's HOS: the next
+        update measures how many of them it finds again (:attr:`flicker`)."""
+        self._voted = np.asarray(mask, dtype=bool).copy()
 
     @property
     def z(self) -> float:
@@ -97,6 +112,8 @@ class FoundAgain:
         found = np.zeros(len(points), dtype=bool)
         tree = kd_tree(points)  # scipy's, imported only when the rule is on
         down = up = 0
+        self.flicker = self._flicker(tree)
+        self._voted = None
         if self._before is not None and tree is not None:
             dist, j = self._before.query(points, k=1, distance_upper_bound=self.radius)
             found = np.isfinite(dist) & (dist > 0.0)  # an exact copy is not "found again"
@@ -113,4 +130,34 @@ class FoundAgain:
         self._before = tree
         if self.falling:
             found[:] = False  # slow snow: what is found again lower down is the flakes
+            self.flicker = None
         return found
+
+    def _flicker(self, tree) -> tuple[float, int] | None:
+        """(How many of the last frame's voted points ``tree``, this frame's, holds again a
+        little way off, beyond chance; how many voted), or None when none did. Drops are
+        never seen again, so for rain the first is chance and is taken off; a crown's leaves,
+        stirred by a gust, stay where they were stirred (docs/method.md, departure 29). Found
+        lower down counts only as often as found higher up: the excess is flakes falling."""
+        if self._before is None or self._voted is None:
+            return None
+        before = self._before.data[self._voted]
+        if len(before) == 0:
+            return None
+        if tree is None:
+            return 0.0, len(before)
+        dist, j = tree.query(before, k=1, distance_upper_bound=self.radius)
+        hit = np.isfinite(dist) & (dist > 0.0)
+        d = tree.data[j[hit]] - before[hit]
+        is_down, is_up, _ = down_up(d, self.vertical, min_step=_SLOW_STEP, cone=_CONE)
+        # a sway moves as often up as down: the pairs found lower down are counted as many
+        # as were found higher up, the rest being a flake's fall
+        swayed = np.count_nonzero(hit) - np.count_nonzero(is_down) + np.count_nonzero(is_up)
+        # ... less what chance finds: the same points moved sideways by _CHANCE_SHIFT radii
+        # (beyond the object they stood on, in the same part of the view), either way
+        chance = 0
+        for sign in (-1.0, 1.0):
+            moved = before + np.array([sign * _CHANCE_SHIFT * self.radius, 0.0])
+            dist, _ = tree.query(moved, k=1, distance_upper_bound=self.radius)
+            chance += np.count_nonzero(np.isfinite(dist))
+        return float(swayed) - 0.5 * chance, len(before)

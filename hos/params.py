@@ -194,6 +194,16 @@ class DecisionParams:
     #: blobs, pooled, fit narrow Gaussians at Pi 0.3-0.6). 0: never.
     collapse_ratio: float = 0.1
     collapse_frames: int = 10
+    #: Beyond the paper: a voting population that the next frame shows again is not rain. A
+    #: drop is seen once, so of a frame's voting blobs only chance finds one again a little
+    #: way off (``robustness.found_again_radius``) in the next frame (2-11 % in rain); the
+    #: leaves of a crown stirred by a gust stay where they were stirred (36-43 % over a
+    #: tree-lined road seen by a soft camera). While the running mean of that share over
+    #: ``flicker_frames`` frames exceeds ``flicker_share``, no fit is a measurement of rain.
+    #: Found again lower down (a flake falling) does not count. 0: never (docs/method.md,
+    #: departure 29).
+    flicker_share: float = 0.25
+    flicker_frames: int = 10
     #: Beyond the paper: while the verdict is rain, a frame with fewer than ``min_blobs``
     #: blobs is not taken as sure evidence (``empty_measurement_var``) if it has at least this
     #: share of the voting blobs of the recent frames (their running mean over
@@ -277,6 +287,8 @@ class DecisionParams:
         _check(self.fall_frames >= 1, "fall_frames", "must be >= 1")
         _check(self.fall_radius > 0, "fall_radius", "must be > 0")
         _check(self.collapse_frames >= 1, "collapse_frames", "must be >= 1")
+        _check(0 <= self.flicker_share <= 1, "flicker_share", "must be in [0, 1]")
+        _check(self.flicker_frames >= 1, "flicker_frames", "must be >= 1")
         _check(self.pool_frames >= 1, "pool_frames", "must be >= 1")
         _check(0 <= self.pool_places <= 1, "pool_places", "must be in [0, 1]")
         _check(0 <= self.spread_places <= 1, "spread_places", "must be in [0, 1]")

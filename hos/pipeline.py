@@ -218,6 +218,11 @@ class HosDetector:
         )
         self._last_fit: tuple[float, float, float] | None = None
         self._votes_rate = 0.0  # voting blobs a frame, a running mean (collapse_ratio)
+        #: the share of a frame's voting blobs found again in the next, a running mean
+        #: (decision.flicker_share)
+        self._flicker_rate = 0.0
+        self._flicker_sums = (0.0, 0.0)
+        self._again_labels = np.zeros(0, np.intp)  # the labels FoundAgain was given
         # beyond the paper: rain or snow (hos/ptype.py)
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
         # beyond the paper: precipitation seen by its fall (hos/fall.py); made per frame size
@@ -548,6 +553,7 @@ class HosDetector:
         traffic = in_traffic & sized & ~structural & ~again
         accepted = sized & ~structural & ~traffic & ~again
         idx = np.flatnonzero(accepted)
+        flicker = self._flicker(comparable and state == State.OK and not hold)
 
         # 4-5. orientation, HOS, mixture
         hp = p.histogram
@@ -598,6 +604,8 @@ class HosDetector:
                 or (dp.sigma_min_blobs > 0 and pooled == 1 and fit.pi * n_eff >= dp.sigma_min_blobs)
             )
             and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
+            # beyond the paper: not a population the next frame shows again (departure 29)
+            and not flicker
             # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
             # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)
             and (pooled == 1 or places >= dp.pool_places * n_pooled)
@@ -677,6 +685,7 @@ class HosDetector:
         # 9. precipitation type (beyond the paper): the shape of the rain blobs, voted over time
         valid_sigma = fit.sigma if fit.ok and fit.gof_ok else math.nan
         rain_idx = idx[is_rain]
+        self._voted_rain(blobs.n_labels, rain_idx)
         background = self._photometric.background if p.segmentation.method == "mog" else None
         contrast = None
         if background is not None and rain_idx.size:
@@ -942,11 +951,40 @@ class HosDetector:
             )
         if not comparable:
             self._again.reset()
+            self._again_labels = np.zeros(0, np.intp)
             return found
         blobs = np.flatnonzero(sized)
         blobs = blobs[blobs > 0]  # the background label
         found[blobs] = self._again.update(np.column_stack((x[blobs], y[blobs])))
+        self._again_labels = blobs
         return found
+
+    def _flicker(self, judged: bool) -> bool:
+        """Step 3d: take in how many of the last frame's rain blobs this frame showed again,
+        and say whether their running share exceeds ``decision.flicker_share``
+        (departure 29)."""
+        dp = self.params.decision
+        if self._again is None:
+            return False
+        flicker = self._again.flicker
+        if judged and flicker is not None:
+            # running sums of what was found again and of what voted: a frame of few voting
+            # blobs weighs little
+            a = 1.0 / dp.flicker_frames
+            self._flicker_sums = (
+                (1 - a) * self._flicker_sums[0] + a * flicker[0],
+                (1 - a) * self._flicker_sums[1] + a * flicker[1],
+            )
+            self._flicker_rate = self._flicker_sums[0] / max(self._flicker_sums[1], 1e-9)
+        return dp.flicker_share > 0 and self._flicker_rate > dp.flicker_share
+
+    def _voted_rain(self, n_labels: int, rain_idx: np.ndarray) -> None:
+        """Tell the found-again rule which of this frame's blobs were the Gaussian's (rain)
+        blobs: the next frame counts how many of them it shows again (departure 29)."""
+        if self._again is not None and self._again_labels.size:
+            rain = np.zeros(n_labels, dtype=bool)
+            rain[rain_idx] = True
+            self._again.voted(rain[self._again_labels])
 
     def _fall_evidence(
         self, judged: bool, height: int, x: np.ndarray, y: np.ndarray, small: np.ndarray
