@@ -200,8 +200,8 @@ class DecisionParams:
     #: leaves of a crown stirred by a gust stay where they were stirred (36-43 % over a
     #: tree-lined road seen by a soft camera). While the running mean of that share over
     #: ``flicker_frames`` frames exceeds ``flicker_share``, no fit is a measurement of rain.
-    #: Found again lower down (a flake falling) does not count. 0: never (docs/method.md,
-    #: departure 29).
+    #: Found again lower down (a flake falling) does not count. 0: never, nor without the
+    #: found-again rule (``robustness.found_again_radius = 0``) (docs/method.md, departure 29).
     flicker_share: float = 0.25
     flicker_frames: int = 10
     #: Beyond the paper: while the verdict is rain, a frame with fewer than ``min_blobs``
