@@ -736,6 +736,7 @@ class HosDetector:
             n_found_again_blobs=int(np.count_nonzero(again & ~structural)),
             fall_z=fall_z,
             fall_px=fall_px,
+            flicker_share=self._flicker_rate,
             labels=blobs.labels,
             blob_class=blob_class,
             pixel_index=blobs.index,

@@ -95,6 +95,10 @@ class FrameResult:
     #: pixels a frame (NaN unless it is seen falling).
     fall_z: float = 0.0
     fall_px: float = math.nan
+    #: Beyond the paper (hos/again.py): the running share of the rain blobs that the next
+    #: frame showed again, beyond chance (``decision.flicker_share``: above it, leaves stirred
+    #: by gusts, not rain; departure 29).
+    flicker_share: float = 0.0
     #: (H, W) int32 labels of the candidate mask and (n_labels,) uint8 class of each label.
     #: ``labels`` may be None when the labels are kept sparse, as the candidate pixels' flat
     #: indices ``pixel_index`` (N,) and their labels ``pixel_labels`` (N,): see label_image().
@@ -144,6 +148,7 @@ class FrameResult:
             "n_found_again_blobs": int(self.n_found_again_blobs),
             "fall_z": json_float(self.fall_z),
             "fall_px": json_float(self.fall_px),
+            "flicker_share": json_float(self.flicker_share),
         }
 
 
