@@ -155,9 +155,9 @@ class FoundAgain:
         swayed = np.count_nonzero(hit) - np.count_nonzero(is_down) + np.count_nonzero(is_up)
         # ... less what chance finds: the same points moved sideways by _CHANCE_SHIFT radii
         # (beyond the object they stood on, in the same part of the view), either way
-        chance = 0
-        for sign in (-1.0, 1.0):
-            moved = before + np.array([sign * _CHANCE_SHIFT * self.radius, 0.0])
-            dist, _ = tree.query(moved, k=1, distance_upper_bound=self.radius)
-            chance += np.count_nonzero(np.isfinite(dist))
+        shift = np.array([_CHANCE_SHIFT * self.radius, 0.0])
+        dist, _ = tree.query(
+            np.concatenate((before - shift, before + shift)), k=1, distance_upper_bound=self.radius
+        )
+        chance = np.count_nonzero(np.isfinite(dist))
         return float(swayed) - 0.5 * chance, len(before)

@@ -218,10 +218,9 @@ class HosDetector:
         )
         self._last_fit: tuple[float, float, float] | None = None
         self._votes_rate = 0.0  # voting blobs a frame, a running mean (collapse_ratio)
-        #: the share of a frame's voting blobs found again in the next, a running mean
-        #: (decision.flicker_share)
-        self._flicker_rate = 0.0
-        self._flicker_sums = (0.0, 0.0)
+        #: of the rain blobs of recent frames, running sums of those the next frame showed
+        #: again beyond chance and of all (decision.flicker_share; :attr:`_flicker_rate`)
+        self._flicker_sums = np.zeros(2)
         self._again_labels = np.zeros(0, np.intp)  # the labels FoundAgain was given
         # beyond the paper: rain or snow (hos/ptype.py)
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
@@ -969,15 +968,15 @@ class HosDetector:
             return False
         flicker = self._again.flicker
         if judged and flicker is not None:
-            # running sums of what was found again and of what voted: a frame of few voting
-            # blobs weighs little
-            a = 1.0 / dp.flicker_frames
-            self._flicker_sums = (
-                (1 - a) * self._flicker_sums[0] + a * flicker[0],
-                (1 - a) * self._flicker_sums[1] + a * flicker[1],
-            )
-            self._flicker_rate = self._flicker_sums[0] / max(self._flicker_sums[1], 1e-9)
+            # running sums, not a running share: a frame of few rain blobs weighs little
+            self._flicker_sums += (np.asarray(flicker) - self._flicker_sums) / dp.flicker_frames
         return dp.flicker_share > 0 and self._flicker_rate > dp.flicker_share
+
+    @property
+    def _flicker_rate(self) -> float:
+        """The running share of the rain blobs that the next frame showed again (departure 29)."""
+        found, voted = self._flicker_sums
+        return float(found / max(voted, 1e-9))
 
     def _voted_rain(self, n_labels: int, rain_idx: np.ndarray) -> None:
         """Tell the found-again rule which of this frame's blobs were the Gaussian's (rain)

@@ -195,13 +195,24 @@ def _frames(n: int, *, rain: int, clutter: int, seed: int = 0):
         img = base.copy()
         at = anchors + velocity * i + r.uniform(-0.3, 0.3, size=(clutter, 2))
         at %= (W, H)
-        ends = np.round(np.stack((at - half, at + half), axis=1) * 16).astype(np.int32)
-        cv2.polylines(img, list(ends), False, 150.0, 1, cv2.LINE_AA, 4)
-        if rain:
-            streaks = StreakParams(count=rain, mu_deg=80.0, brightness=30.0, length_px=9.0)
-            img = img + render_streaks((H, W), streaks, r).layer
-        img = img + 1.5 * r.standard_normal((H, W)).astype(np.float32)
-        yield np.clip(img + 0.5, 0, 255).astype(np.uint8)
+        _segments(img, at, half, 150.0)
+        yield _delivered(img, r, rain=rain, length_px=9.0)
+
+
+def _segments(img: np.ndarray, at: np.ndarray, half: np.ndarray, level: float) -> None:
+    """Antialiased one-pixel segments from ``at - half`` to ``at + half``, drawn in ``img``."""
+    ends = np.round(np.stack((at - half, at + half), axis=1) * 16).astype(np.int32)
+    cv2.polylines(img, list(ends), False, level, 1, cv2.LINE_AA, 4)
+
+
+def _delivered(img: np.ndarray, r, *, rain: int, length_px: float) -> np.ndarray:
+    """``img`` with ``rain`` streaks at 80 degrees drawn from ``r`` and sensor noise, as uint8."""
+    h, w = img.shape
+    if rain:
+        streaks = StreakParams(count=rain, mu_deg=80.0, brightness=30.0, length_px=length_px)
+        img = img + render_streaks((h, w), streaks, r).layer
+    img = img + 1.5 * r.standard_normal((h, w)).astype(np.float32)
+    return np.clip(img + 0.5, 0, 255).astype(np.uint8)
 
 
 def _said(frames, **robustness) -> tuple[float, float]:
@@ -266,13 +277,8 @@ def _gusts(n: int, *, rain: int = 0, seed: int = 0):
         for k in range(max(0, i - 3), i + 1):  # the fragments born in the last 4 frames
             at = born[k] + r.uniform(-0.8, 0.8, size=(30, 2))
             half = 3.5 * np.column_stack((np.cos(angle[k]), np.sin(angle[k])))
-            ends = np.round(np.stack((at - half, at + half), axis=1) * 16).astype(np.int32)
-            cv2.polylines(img, list(ends), False, 120.0, 1, cv2.LINE_AA, 4)
-        if rain:
-            streaks = StreakParams(count=rain, mu_deg=80.0, brightness=30.0, length_px=12.0)
-            img = img + render_streaks((h, w), streaks, r).layer
-        img = img + 1.5 * r.standard_normal((h, w)).astype(np.float32)
-        yield np.clip(img + 0.5, 0, 255).astype(np.uint8)
+            _segments(img, at, half, 120.0)
+        yield _delivered(img, r, rain=rain, length_px=12.0)
 
 
 def _said_with(frames, **decision) -> tuple[float, float]:
