@@ -700,8 +700,11 @@ class HosDetector:
             reference_height=self._ptype.params.reference_height,
         )
         vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
-        if self._falling.value and not smoothed.rain and state == State.OK:
-            vote = SNOW  # seen falling, not as streaks: flakes
+        if self._falling.value and state == State.OK:
+            # seen falling a few pixels a frame: flakes, whatever their streaks look like (a
+            # drop falls further between two frames than its streak is long, and is not found
+            # again lower down; docs/method.md, "Precipitation type")
+            vote = SNOW
         precipitation_type = self._ptype.update(vote, precipitating=rain)
 
         # 8. intensity

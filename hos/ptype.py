@@ -22,8 +22,10 @@ once a clear majority agrees, with hysteresis; ``unknown`` when the detector see
 precipitation, or the evidence is too thin or split.
 
 Everything here is pure numpy over all blobs at once; the only state is the vote window.
-Fall speed is not used: it needs the same streak followed between frames, and the elongation
-already carries it (a streak's length is the fall speed times the exposure time).
+Fall speed is not used here: it needs the same streak followed between frames, and the
+elongation already carries it (a streak's length is the fall speed times the exposure time).
+Where flakes *are* followed, found lower down in the next frame (``hos/fall.py``), the detector
+votes snow instead of this frame's vote, whatever the streaks look like (``hos/pipeline.py``).
 """
 
 from __future__ import annotations

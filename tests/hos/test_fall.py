@@ -96,16 +96,18 @@ def test_a_window_must_hold_a_frame() -> None:
 
 
 # -- the detector ------------------------------------------------------------------------------
-def _flakes(motion: str, *, fall_z: float | None = None) -> list:
+def _flakes(motion: str, *, fall_z: float | None = None, shape: str = "round") -> list:
     """Results on a clear street with 250 round flakes (radius 1 px, 50-90 grey levels over the
-    scene) drawn on it; ``motion`` is how they move between frames."""
+    scene) drawn on it; ``motion`` is how they move between frames. ``shape="streak"`` draws
+    each as a faint vertical streak instead (5 px long, 1 px wide, 15-30 grey levels): what
+    the HOS and the precipitation type's shape features take for rain."""
     scene = Scene(W, H, seed=21, params=SceneParams(cars=1))
     rng = np.random.default_rng(5)
     n = 250
     x = rng.uniform(0, W, n)
     y = rng.uniform(0, H, n)
     speed = rng.uniform(2.0, 4.0, n)
-    level = rng.uniform(50, 90, n)
+    level = rng.uniform(15, 30, n) if shape == "streak" else rng.uniform(50, 90, n)
     params = DetectorParams()
     if fall_z is not None:
         params = DetectorParams.from_dict({"decision": {"fall_z": fall_z}})
@@ -124,7 +126,10 @@ def _flakes(motion: str, *, fall_z: float | None = None) -> list:
         gray = scene.frame(i)[0].astype(np.float32)
         dots = np.zeros_like(gray)
         for xi, yi, li in zip(x, y, level, strict=True):
-            cv2.circle(dots, (round(xi), round(yi)), 1, float(li), -1)
+            if shape == "streak":
+                cv2.line(dots, (round(xi), round(yi) - 2), (round(xi), round(yi) + 2), float(li))
+            else:
+                cv2.circle(dots, (round(xi), round(yi)), 1, float(li), -1)
         out.append(det.process(np.clip(gray + dots, 0, 255).astype(np.uint8), i / 25))
     return out
 
@@ -155,3 +160,23 @@ def test_without_the_fall_the_round_flakes_are_not_seen() -> None:
     judged = _flakes("fall", fall_z=0.0)[SETTLE:]
     assert np.mean([r.rain for r in judged]) < 0.1
     assert all(r.fall_z == 0.0 for r in judged)
+
+
+@pytest.fixture(scope="module")
+def streaks() -> dict[str, list]:
+    return {m: _flakes(m, shape="streak") for m in ("fall", "random")}
+
+
+def test_streaks_seen_falling_are_snow_and_the_same_streaks_anew_are_rain(streaks) -> None:
+    """The fall decides the type over the streaks' shape: flakes falling 2-4 px a frame, drawn
+    as faint thin streaks, are seen by the HOS as rain would be; the control, the same streaks
+    at new places every frame, is typed rain. Before the fall voted snow while the HOS also
+    saw rain, both were typed rain (docs/method.md, "Precipitation type")."""
+    falling = streaks["fall"][SETTLE:]
+    anew = streaks["random"][SETTLE:]
+    assert np.mean([r.rain for r in falling]) >= 0.98
+    assert np.mean([r.pi_smoothed >= DetectorParams().decision.pi_rain for r in falling]) >= 0.9
+    assert np.mean([r.precipitation_type == "snow" for r in falling]) >= 0.95
+    assert np.mean([r.rain for r in anew]) >= 0.98
+    assert max(r.fall_z for r in anew) < DetectorParams().decision.fall_z
+    assert np.mean([r.precipitation_type == "rain" for r in anew]) >= 0.95
