@@ -9,7 +9,10 @@ repository: point this at your own (the shared fixtures' clear clips work too). 
 decoded as ``weatherd`` decodes it (PyAV) and given to the detector frame by frame at its own
 frame rate; the first 90 frames (the warm-up and the first dwell) are not counted. "judged" is
 the share of the counted frames whose ``state`` is ok; "rain" is the share of the judged frames
-said rain; "episodes" counts the runs of rain and "longest" the longest, in frames.
+said rain; "episodes" counts the runs of rain and "longest" the longest, in frames. "Pi~ p99"
+and "Pi~ max" are the 99th percentile and the highest of the smoothed Pi over the judged
+frames: on a dry clip, how near the decision's threshold (``decision.pi_rain``, 0.35) it came
+even where it said no rain (``make eval`` prints the same for the benchmark's clear frames).
 
 ``--passes N`` plays each clip N times over (its timestamps running on) and counts the last
 pass only, all of it: the detector has then learnt the whole clip (its background, the traffic
@@ -121,6 +124,8 @@ class ClipResult:
     with_drawn: list[int] = field(default_factory=lambda: [0, 0])
     #: the camera's precipitation type on the judged frames counted in ``with_drawn``
     drawn_types: Counter = field(default_factory=Counter)
+    #: the smoothed Pi of every judged frame counted: how near the threshold a dry clip came
+    pi_smoothed: list[float] = field(default_factory=list)
 
     @property
     def counted(self) -> int:
@@ -196,6 +201,8 @@ def evaluate(
                 judged = r.state == State.OK
                 said = bool(r.rain) and judged
                 res.rain += said
+                if judged:
+                    res.pi_smoothed.append(float(r.pi_smoothed))
                 run = run + 1 if said else 0
                 res.episodes += run == 1
                 res.longest = max(res.longest, run)
@@ -218,7 +225,19 @@ def evaluate(
     return res
 
 
-HEADER = ["clip", "size", "fps", "frames", "judged %", "rain %", "episodes", "longest", "states"]
+HEADER = [
+    "clip",
+    "size",
+    "fps",
+    "frames",
+    "judged %",
+    "rain %",
+    "episodes",
+    "longest",
+    "Pi~ p99",
+    "Pi~ max",
+    "states",
+]
 
 
 def row(r: ClipResult) -> list[str]:
@@ -234,6 +253,8 @@ def row(r: ClipResult) -> list[str]:
         rain,
         str(r.episodes),
         str(r.longest),
+        f"{np.percentile(r.pi_smoothed, 99):.2f}" if r.pi_smoothed else "-",
+        f"{max(r.pi_smoothed):.2f}" if r.pi_smoothed else "-",
         states or f"shorter than the {SETTLE}-frame warm-up",
     ]
 

@@ -30,6 +30,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from drivers.simulator.families import SPLITS, SceneCase, case_frames, sample_cases
 from hos import DetectorParams, HosDetector, State
 
+#: The decision's threshold on the smoothed Pi (eq. 23's weight), for the clear frames' margin.
+PI_RAIN = DetectorParams().decision.pi_rain
 #: Frames after the start not scored: the detector's warm-up (60 frames) and the first dwell.
 SETTLE = 90
 #: Frames after a change of the truth not scored as detection or false alarm (latency is).
@@ -85,6 +87,9 @@ class CaseResult:
     #: the camera's precipitation type on the frames scored for false rain or detection:
     #: (truth, answer) -> frames; truth clear, rain or snow, answer rain, snow or unknown
     types: Counter = field(default_factory=Counter)
+    #: the smoothed Pi (Kalman) on the frames counted in ``judged_clear``: how near clear
+    #: weather came to the decision's threshold (``decision.pi_rain``), the false rain's margin
+    clear_pi: list[float] = field(default_factory=list)
 
 
 def wrapped_deg(a: float, b: float) -> float:
@@ -136,6 +141,7 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
     verdicts: list[bool] = []
     truths: list[bool] = []
     states: list[str] = []
+    pis: list[float] = []
     moving: list[bool] = []
     rs: list[float] = []
     visible: list[bool] = []
@@ -153,6 +159,7 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
         kinds.append(str(r.precipitation_type))
         truths.append(f.precipitation)
         states.append(r.state)
+        pis.append(float(r.pi_smoothed))
         moving.append(f.moving)
         if i >= SETTLE and r.rain and f.precipitation and math.isfinite(f.mu):
             if math.isfinite(r.mu_smoothed):
@@ -182,6 +189,7 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
         if not truths[i] and states[i] == State.OK:
             res.judged_clear += 1
             res.false_frames += verdicts[i]
+            res.clear_pi.append(pis[i])
         elif truths[i]:
             res.wet += 1
             res.detected += verdicts[i] and states[i] == State.OK
@@ -316,6 +324,13 @@ def table(results: list[CaseResult]) -> tuple[list[list[str]], dict[str, float]]
             [r.recovery for r in results if r.camera == "knock"]
         ),
     }
+    # how near clear weather comes to the threshold: the false rain's margin, where the false
+    # rain itself is 0 (compare the real dry clips' with bench/eval_clips.py)
+    clear_pi = [v for r in results for v in r.clear_pi]
+    totals[f"smoothed Pi on clear frames, 99th percentile (rain at {PI_RAIN:g})"] = (
+        float(np.percentile(clear_pi, 99)) if clear_pi else math.nan
+    )
+    totals["smoothed Pi on clear frames, highest"] = max(clear_pi, default=math.nan)
     # R is not comparable across frame sizes: ranks within each size, then their mean.
     graded = [
         r

@@ -40,10 +40,13 @@ def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys
     assert r.counted == 200 - clips.SETTLE and r.judged == r.counted
     assert 60 <= r.rain <= 80  # the rain's 80 frames, less the detector's latency
     assert r.episodes == 1 and r.longest == r.rain
+    # one smoothed Pi per judged frame: over the threshold in the rain
+    assert len(r.pi_smoothed) == r.judged and max(r.pi_smoothed) > 0.35
 
     assert clips.main([str(path), str(bad), "--markdown"]) == 1  # one clip could not be read
     out, err = capsys.readouterr()
     assert out.startswith("| clip | size |") and "| street.avi | 320x240 | 25.0 | 200 |" in out
+    assert "| Pi~ p99 | Pi~ max |" in out
     assert "notes.txt: cannot be read as a video" in err
 
 
@@ -87,7 +90,8 @@ def test_rain_drawn_over_a_clear_clip_is_told_apart_from_before_it(tmp_path, cap
     no frame is said rain, from a second after it began (frame 145) nearly all are; the same
     clip without it says rain on no frame, so the drawn rain is what is seen."""
     path = _clear_street(tmp_path, seed=7)
-    assert clips.evaluate(path).rain == 0
+    dry = clips.evaluate(path)
+    assert dry.rain == 0 and max(dry.pi_smoothed) < 0.35  # the dry clip's margin
 
     r = clips.evaluate(path, draw="light", draw_from_s=4.8)
     assert r.before_drawn == [30, 0]  # frames 90-119, judged, none said rain

@@ -102,6 +102,25 @@ def test_small_scenes_through_the_detector() -> None:
     assert sum(c.types.values()) == c.judged_clear
     assert c.types[("clear", "unknown")] >= 0.8 * c.judged_clear
     assert r.types[("rain", "snow")] == 0 and r.types[("rain", "rain")] >= 0.5 * r.wet
+    # the clear frames' margin: one smoothed Pi per frame judged clear, under the threshold
+    # wherever no rain was said; a rain scene has no clear frame after the warm-up
+    assert len(c.clear_pi) == c.judged_clear and not r.clear_pi
+    assert all(0.0 <= p <= 1.0 for p in c.clear_pi)
+    if c.false_frames == 0:
+        assert max(c.clear_pi) < ev.PI_RAIN
+
+
+def test_the_clear_frames_margin_pools_the_scenes() -> None:
+    a = ev.CaseResult("a", "clear", "static", 0.0, 25.0, judged_clear=100)
+    a.clear_pi = [0.0] * 98 + [0.2, 0.3]
+    b = ev.CaseResult("b", "clear", "wind", 0.0, 25.0, judged_clear=100)
+    b.clear_pi = [0.1] * 100
+    _, totals = ev.table([a, b])
+    p99 = totals[f"smoothed Pi on clear frames, 99th percentile (rain at {ev.PI_RAIN:g})"]
+    assert p99 == pytest.approx(np.percentile(a.clear_pi + b.clear_pi, 99))
+    assert 0.1 < p99 < 0.3 and totals["smoothed Pi on clear frames, highest"] == 0.3
+    text = ev.render("tuning", [a, b], 1.0, markdown=False)
+    assert "- smoothed Pi on clear frames, highest: 0.30" in text
 
 
 def test_the_type_confusion_matrix_adds_the_scenes_up() -> None:
