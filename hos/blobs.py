@@ -30,6 +30,7 @@ __all__ = [
     "label_candidates",
     "local_rate_at",
     "local_rate_map",
+    "moved_edge",
     "size_rule",
     "structure_rule",
     "thin_rule",
@@ -228,6 +229,76 @@ def blob_change(
     index = np.asarray(index, dtype=np.intp)
     now = image.reshape(-1)[index].astype(np.int16)
     return blob_mean(np.abs(now - previous.reshape(-1)[index]), pixel_labels, n_labels)
+
+
+def moved_edge(
+    image: np.ndarray,
+    background: np.ndarray,
+    index: np.ndarray,
+    pixel_labels: np.ndarray,
+    moments: BlobMoments,
+    among: np.ndarray,
+    *,
+    shift_px: float,
+) -> np.ndarray:
+    """(n_labels,) bool: the blobs of ``among`` whose brightening an edge of the background,
+    moved by up to ``shift_px`` pixels across its own length, explains (beyond the paper;
+    docs/method.md, departure 30).
+
+    A camera that vibrates by a fraction of a pixel, too little or too brief for the motion
+    estimate, slides every edge of the view over its pixels: along each edge the bright side
+    moves onto pixels that were dark, and eq. 8 cuts out a sliver as thin as a streak and as
+    long as the edge, oriented along it. Under a drop the background can be anything; under a
+    sliver it is an edge running along the blob. So: the background's gradient, averaged over
+    the blob's pixels with its sign (texture averages out, an edge does not), is taken across
+    the blob (along the minor axis of its moments, eqs. 13-16); a step edge moved by d pixels
+    brightens its pixel by d times the step, and the central difference reads half the step,
+    so a blob is an edge moved when its mean brightening over the background is at most
+    ``2 * shift_px`` times that gradient.
+
+    Parameters
+    ----------
+    image, background : (H, W) uint8, the frame and the background eq. 8 compared it with
+    index : (N,) int, flat indices of the candidate pixels; pixel_labels : (N,) int, their blob
+    moments : the blobs' :class:`BlobMoments` (central second moments m20, m11, m02)
+    among : (n_labels,) bool, the blobs to test (the others are False)
+    shift_px : the largest shift explained; 0 tests nothing
+    """
+    n_labels = among.shape[0]
+    out = np.zeros(n_labels, dtype=bool)
+    labels = np.asarray(pixel_labels, dtype=np.intp)
+    tested = np.flatnonzero(among)
+    if shift_px <= 0 or tested.size == 0 or labels.size == 0:
+        return out
+    # the tested blobs only, renumbered 0..k-1 (their pixels are a small part of the candidates)
+    compact = np.full(n_labels, -1, dtype=np.intp)
+    compact[tested] = np.arange(tested.size)
+    ids = compact[labels]
+    keep = ids >= 0
+    ids = ids[keep]
+    idx = np.asarray(index, dtype=np.intp)[keep]
+    h, w = background.shape
+    flat = background.reshape(-1)
+    x, y = idx % w, idx // w
+    # central differences, one-sided at the border (numpy's gradient, at the pixels needed)
+    xp, xm = np.minimum(x + 1, w - 1), np.maximum(x - 1, 0)
+    yp, ym = np.minimum(y + 1, h - 1), np.maximum(y - 1, 0)
+    row = idx - x
+    gx = (flat[row + xp].astype(np.float64) - flat[row + xm]) / np.maximum(xp - xm, 1)
+    gy = (flat[yp * w + x].astype(np.float64) - flat[ym * w + x]) / np.maximum(yp - ym, 1)
+    rise = image.reshape(-1)[idx].astype(np.float64) - flat[idx]
+    k = tested.size
+    area = np.maximum(np.bincount(ids, minlength=k), 1).astype(np.float64)
+    mean_gx = np.bincount(ids, gx, k) / area
+    mean_gy = np.bincount(ids, gy, k) / area
+    mean_rise = np.bincount(ids, rise, k) / area
+    # the major axis is at 0.5 atan2(2 m11, m20 - m02) in the image's own axes (x right,
+    # y down); across it is the unit normal (-sin, cos)
+    major = 0.5 * np.arctan2(2.0 * moments.m11[tested], moments.m20[tested] - moments.m02[tested])
+    across = np.abs(-mean_gx * np.sin(major) + mean_gy * np.cos(major))
+    with np.errstate(invalid="ignore"):
+        out[tested] = mean_rise <= 2.0 * shift_px * across  # NaN moments compare False
+    return out
 
 
 def blob_mean(values: np.ndarray, pixel_labels: np.ndarray, n_labels: int) -> np.ndarray:

@@ -441,6 +441,12 @@ class RobustnessParams:
     found_again_radius: float = 3.0
     found_again_frames: int = 25
     found_again_fall_z: float = 8.0
+    #: Beyond the paper: a streak-sized blob whose brightening over the background is what an
+    #: edge of the background under it, moved across its length by up to this many pixels,
+    #: would give takes no part in the HOS (``hos.blobs.moved_edge``): the slivers that a
+    #: camera's vibration, too small or too brief for the motion estimate, cuts along every
+    #: pole, post and rail, all oriented alike (docs/method.md, departure 30). 0: off.
+    moved_edge_px: float = 1.0
 
     def __post_init__(self) -> None:
         _check(self.warmup_frames >= 0, "warmup_frames", "must be >= 0")
@@ -481,6 +487,7 @@ class RobustnessParams:
         _check(self.traffic_hits >= 0, "traffic_hits", "must be >= 0")
         _check(self.traffic_below >= 0, "traffic_below", "must be >= 0")
         _check(self.found_again_radius >= 0, "found_again_radius", "must be >= 0")
+        _check(self.moved_edge_px >= 0, "moved_edge_px", "must be >= 0")
         _check(self.found_again_frames >= 1, "found_again_frames", "must be >= 1")
         _check(self.found_again_fall_z >= 0, "found_again_fall_z", "must be >= 0")
 

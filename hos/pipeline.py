@@ -55,6 +55,7 @@ from .blobs import (
     find_blobs_sparse,
     local_rate_at,
     local_rate_map,
+    moved_edge,
     size_rule,
     structure_rule,
     thin_rule,
@@ -551,6 +552,19 @@ class HosDetector:
         again = self._found_again(comparable, h, mom.x0, mom.y0, sized)
         traffic = in_traffic & sized & ~structural & ~again
         accepted = sized & ~structural & ~traffic & ~again
+        # 3d. slivers of an edge the camera moved (beyond the paper, departure 30)
+        if rob.moved_edge_px > 0 and p.segmentation.method == "mog":
+            moved_edge_ = moved_edge(
+                seg.image,
+                self._photometric.background,
+                blobs.index,
+                blobs.pixel_labels,
+                mom,
+                accepted,
+                shift_px=rob.moved_edge_px,
+            )
+            accepted &= ~moved_edge_
+            structural = structural | moved_edge_
         idx = np.flatnonzero(accepted)
         flicker = self._flicker(comparable and state == State.OK and not hold)
 

@@ -30,12 +30,14 @@ def _run(mover_rate: float) -> tuple[np.ndarray, int]:
     scene = Scene(W, H, seed=case.seed, params=case.params)
     # the blobs found again (departure 23) and, on their own, the thin rule (departure 25: 5
     # false frames without it, none with it) and the shorter of two offset fits (departure
-    # 27: 5 false frames with the symmetric fit alone, none) also keep this scene clear
-    # without the mover rule: all off here, so that the mover rule is shown alone
+    # 27: 5 false frames with the symmetric fit alone, none) and the moved edges (departure
+    # 30: the vertical edges' slivers do not vote) also keep this scene clear without the
+    # mover rule: all off here, so that the mover rule is shown alone
     robustness = {
         "mover_rate": mover_rate,
         "found_again_radius": 0.0,
         "motion_gradient": "mean",
+        "moved_edge_px": 0.0,
     }
     segmentation = {"thin_factor": 1.0}
     params = {"robustness": robustness, "segmentation": segmentation}
