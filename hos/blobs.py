@@ -287,11 +287,9 @@ def moved_edge(
     gx = (flat[row + xp].astype(np.float64) - flat[row + xm]) / np.maximum(xp - xm, 1)
     gy = (flat[yp * w + x].astype(np.float64) - flat[ym * w + x]) / np.maximum(yp - ym, 1)
     rise = image.reshape(-1)[idx].astype(np.float64) - flat[idx]
-    k = tested.size
-    area = np.maximum(np.bincount(ids, minlength=k), 1).astype(np.float64)
-    mean_gx = np.bincount(ids, gx, k) / area
-    mean_gy = np.bincount(ids, gy, k) / area
-    mean_rise = np.bincount(ids, rise, k) / area
+    mean_gx = blob_mean(gx, ids, tested.size)
+    mean_gy = blob_mean(gy, ids, tested.size)
+    mean_rise = blob_mean(rise, ids, tested.size)
     # the major axis is at 0.5 atan2(2 m11, m20 - m02) in the image's own axes (x right,
     # y down); across it is the unit normal (-sin, cos)
     major = 0.5 * np.arctan2(2.0 * moments.m11[tested], moments.m20[tested] - moments.m02[tested])

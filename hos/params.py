@@ -487,9 +487,9 @@ class RobustnessParams:
         _check(self.traffic_hits >= 0, "traffic_hits", "must be >= 0")
         _check(self.traffic_below >= 0, "traffic_below", "must be >= 0")
         _check(self.found_again_radius >= 0, "found_again_radius", "must be >= 0")
-        _check(self.moved_edge_px >= 0, "moved_edge_px", "must be >= 0")
         _check(self.found_again_frames >= 1, "found_again_frames", "must be >= 1")
         _check(self.found_again_fall_z >= 0, "found_again_fall_z", "must be >= 0")
+        _check(self.moved_edge_px >= 0, "moved_edge_px", "must be >= 0")
 
 
 @dataclass(frozen=True)

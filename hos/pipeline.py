@@ -564,7 +564,7 @@ class HosDetector:
                 shift_px=rob.moved_edge_px,
             )
             accepted &= ~moved_edge_
-            structural = structural | moved_edge_
+            structural |= moved_edge_
         idx = np.flatnonzero(accepted)
         flicker = self._flicker(comparable and state == State.OK and not hold)
 
@@ -977,7 +977,7 @@ class HosDetector:
         return found
 
     def _flicker(self, judged: bool) -> bool:
-        """Step 3d: take in how many of the last frame's rain blobs this frame showed again,
+        """Step 3e: take in how many of the last frame's rain blobs this frame showed again,
         and say whether their running share exceeds ``decision.flicker_share``
         (departure 29)."""
         dp = self.params.decision

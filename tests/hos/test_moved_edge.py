@@ -69,11 +69,10 @@ def test_a_step_edge_moved_by_a_fraction_of_a_pixel_is_explained(angle) -> None:
 
 
 def _with_streak(background: np.ndarray, p0, p1, level: float) -> np.ndarray:
-    frame = background.astype(np.float32)
-    cv2.line(frame, p0, p1, float(level))  # added below: the streak over whatever is there
-    out = background.astype(np.float32)
-    out[frame != background] += level
-    return np.clip(out, 0, 255).astype(np.uint8)
+    """``background`` with a one-pixel streak ``level`` grey levels brighter from p0 to p1."""
+    streak = np.zeros(background.shape, np.float32)
+    cv2.line(streak, p0, p1, float(level))
+    return np.clip(background + streak, 0, 255).astype(np.uint8)
 
 
 def _streak_blob(background: np.ndarray, frame: np.ndarray) -> bool:
