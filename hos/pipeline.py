@@ -983,6 +983,13 @@ class HosDetector:
         dp = self.params.decision
         if self._again is None:
             return False
+        if self._again.falling:
+            # What is found again falls: slow snow, not a crown's leaves. The rule stands
+            # aside, and the evidence behind its share fades, so that the share is measured
+            # afresh when the fall ends (frozen, a share above the threshold held every fit
+            # off for as long as the snow was seen to fall).
+            self._flicker_sums *= 1.0 - 1.0 / dp.flicker_frames
+            return False
         flicker = self._again.flicker
         if judged and flicker is not None:
             # running sums, not a running share: a frame of few rain blobs weighs little

@@ -310,3 +310,21 @@ def test_rain_among_leaves_stirred_by_gusts_is_still_seen() -> None:
     the threshold."""
     said, flicker = _said_with(_gusts(200, rain=150))
     assert said >= 0.95 and flicker < DetectorParams().decision.flicker_share
+
+
+def test_a_share_measured_before_snow_was_seen_to_fall_does_not_hold_it_off() -> None:
+    """While what is found again falls (slow snow), the flicker rule stands aside; the share it
+    measured before (0.5, over the threshold) must neither hold the fits off meanwhile nor
+    outweigh the first frames measured after the fall (it was frozen, and held snow in a
+    shaded, windy scene off for 200 frames)."""
+    det = HosDetector(DetectorParams())
+    det._again = FoundAgain(radius=3.0, frames=25, fall_z=8.0)
+    det._flicker_sums = np.array([5.0, 10.0])  # half of the rain blobs seen again
+    assert det._flicker(True)  # over the threshold (0.25): no fit is a measurement
+    det._again._down, det._again._up = 100, 0  # then the pairs found again are seen to fall
+    assert det._again.falling
+    assert not any(det._flicker(True) for _ in range(30))
+    det._again._down = 0  # the fall is no longer seen; the next frame finds none of 20 again
+    det._again.flicker = (0.0, 20)
+    assert not det._flicker(True)
+    assert det._flicker_rate < 0.1
