@@ -68,6 +68,13 @@ _RANGES = {
         # fall in pixels a frame at 480 rows (scaled with the height)
         "falling_snow": 0.5,
         "fall_px": (1.5, 5.0),
+        # cloud shade (SceneParams.shade): its chance, the light it takes, its drift in px/s
+        # at 640 columns (scaled with the width), the share of the view under it, its edge
+        "shade_chance": 0.3,
+        "shade": (0.2, 0.45),
+        "shade_speed": (20.0, 80.0),
+        "shade_cover": (0.3, 0.6),
+        "shade_edge": (0.2, 0.6),
         "seed0": 10_000,
     },
     "evaluation": {
@@ -88,6 +95,11 @@ _RANGES = {
         "dense": 0.35,
         "falling_snow": 0.6,
         "fall_px": (1.0, 7.0),
+        "shade_chance": 0.35,
+        "shade": (0.25, 0.55),
+        "shade_speed": (30.0, 120.0),
+        "shade_cover": (0.3, 0.6),
+        "shade_edge": (0.1, 0.5),
         "seed0": 50_000,
     },
 }
@@ -206,6 +218,16 @@ def sample_case(
     params = replace(
         params, cars=params.cars + more_cars, wet_road=wet, wet_always=condition == "clear"
     )
+    # ... and so does the cloud shade
+    sky = np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 4])
+    if sky.random() < float(r["shade_chance"]):
+        params = replace(
+            params,
+            shade=float(sky.uniform(*r["shade"])),
+            shade_speed_px_s=float(sky.uniform(*r["shade_speed"])) * width / 640,
+            shade_cover=float(sky.uniform(*r["shade_cover"])),
+            shade_edge=float(sky.uniform(*r["shade_edge"])),
+        )
     density = 0.0
     rain_frames = None
     mu = float(rng.uniform(70.0, 110.0))

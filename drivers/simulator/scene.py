@@ -71,6 +71,11 @@ class SceneParams:
         3 Hz) plus a per-frame jitter, of typical amplitude ``shake_px`` px; 0: still. The
         precipitation, drawn at random sub-pixel places, is not resampled with it
     darkness : global dimming, 0 (day) to 1 (black): the scene is multiplied by 1 - darkness
+    shade : cloud shade: the share of light a passing cloud's shadow takes away, 0 (none) to
+        1; its shadows drift across the view at ``shade_speed_px_s`` px/s (to the right),
+        cover about ``shade_cover`` of it, and their edges are soft over about
+        ``shade_edge`` of a shadow's size (0: sharp). The whole view is multiplied, the
+        precipitation with it
     wet_road : how wet the road is while it rains (and for 10 s after), 0 (dry) to 1: vehicles
         throw spray behind their wheels and their lights are mirrored in the road as vertical
         bright streaks under them (``street._draw_wet_road``); 0: never
@@ -95,6 +100,10 @@ class SceneParams:
     jpeg_quality: int | None = None
     shake_px: float = 0.0
     darkness: float = 0.0
+    shade: float = 0.0
+    shade_speed_px_s: float = 40.0
+    shade_cover: float = 0.4
+    shade_edge: float = 0.3
     wet_road: float = 0.0
     wet_always: bool = False
     rain: StreakParams | None = None
@@ -124,6 +133,9 @@ class SceneParams:
         )
         _require(self.shake_px >= 0, "SceneParams.shake_px", "must be >= 0")
         _require(0 <= self.darkness < 1, "SceneParams.darkness", "must be in [0, 1)")
+        _require(0 <= self.shade < 1, "SceneParams.shade", "must be in [0, 1)")
+        _require(0 < self.shade_cover < 1, "SceneParams.shade_cover", "must be in (0, 1)")
+        _require(0 <= self.shade_edge <= 1, "SceneParams.shade_edge", "must be in [0, 1]")
         _require(0 <= self.wet_road <= 1, "SceneParams.wet_road", "must be in [0, 1]")
 
     @classmethod
@@ -161,7 +173,8 @@ class FrameTruth:
         moved with the camera shake
     rain_mask, noise_mask : (H, W) bool, disjoint, union ``mask``: pixels of the Gaussian
         population (rain streaks or snow flakes) and of the uniform one
-    gain : global gain applied to the scene (exposure times 1 - darkness)
+    gain : global gain applied to the scene (exposure times 1 - darkness; cloud shade, which
+        varies over the view, is not in it)
     shake : (dx, dy), px, translation applied to the frame
     """
 
@@ -192,6 +205,7 @@ class FrameTruth:
 _BACKGROUND, _RAIN, _SNOW, _NOISE, _JITTER, _SHAKE = range(6)
 _GUST, _FLUTTER, _CAR, _PED, _EXPOSURE = range(6, 11)
 _SPRAY = 11
+_CLOUD = 12
 #: A road stays wet this long after the rain, s (it dries over hours; the benchmark's scenes
 #: last seconds, so a clear scene on a wet road says so with ``SceneParams.wet_always``).
 _WET_AFTER_S = 10.0
@@ -225,6 +239,7 @@ class Scene:
         self._static = bg if self._sway else self._foliage.over(bg)
         self._gain_starts = [1.0]  # gain at the start of each exposure slot, grown on demand
         self._noise_bank: np.ndarray | None = None
+        self._shade = self._shade_canvas() if self.params.shade > 0 else None
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -280,8 +295,9 @@ class Scene:
 
         rain_k, snow_k = self._intensity(i)
         gain = self._gain(i) * (1.0 - p.darkness)
-        g = np.float32(gain)
-        clear = img if gain == 1.0 else np.clip(img * g, 0, 255)  # the street is within [0, 255]
+        g = np.float32(gain) if self._shade is None else self._shade_at(i) * np.float32(gain)
+        lit = gain == 1.0 and self._shade is None
+        clear = img if lit else np.clip(img * g, 0, 255)  # the street is within [0, 255]
         layers: list[StreakLayer] = []
         wet = img
         if rain_k > 0 and p.rain is not None:
@@ -302,7 +318,7 @@ class Scene:
         if not layers:
             out = clear
         else:
-            out = np.minimum(wet, 255) if gain == 1.0 else np.clip(wet * g, 0, 255)
+            out = np.minimum(wet, 255) if lit else np.clip(wet * g, 0, 255)
 
         # Ground truth per pixel: 0 none, 1 Gaussian population, 2 uniform population.
         if layers:
@@ -361,6 +377,33 @@ class Scene:
         ok = math.isfinite(rain) and math.isfinite(snow) and rain >= 0 and snow >= 0
         _require(ok, "SceneParams.schedule", f"frame {i}: multipliers must be >= 0, got {v!r}")
         return rain, snow
+
+    def _shade_canvas(self) -> np.ndarray:
+        """(H, P) float32 light of the cloud shade over a strip P wide that repeats, 1 in the
+        sun and ``1 - shade`` under a cloud."""
+        p = self.params
+        rng = np.random.default_rng([self.seed, _CLOUD])
+        cell = max(self.width // 4, 8)  # a cloud's shadow is about a quarter of the view
+        gh, gw = -(-self.height // cell) + 1, 4 * (-(-self.width // cell))
+        knots = rng.random((gh, gw)).astype(np.float32)
+        pad = 2
+        wrapped = np.pad(knots, ((pad, pad), (pad, pad)), mode="wrap")
+        size = ((gw + 2 * pad) * cell, (gh + 2 * pad) * cell)
+        field = cv2.resize(wrapped, size, interpolation=cv2.INTER_CUBIC)
+        field = field[pad * cell : pad * cell + self.height, pad * cell : (pad + gw) * cell]
+        # shade where the field is above its (1 - cover) quantile; a soft step of the given width
+        level = float(np.quantile(field, 1.0 - p.shade_cover))
+        spread = max(p.shade_edge * float(field.std()), 1e-3)
+        shaded = np.clip((field - level) / spread + 0.5, 0.0, 1.0)
+        return (1.0 - p.shade * shaded).astype(np.float32)
+
+    def _shade_at(self, i: int) -> np.ndarray:
+        """(H, W) float32 light of the cloud shade in frame ``i``."""
+        canvas = self._shade
+        period = canvas.shape[1]
+        off = round(i * self.params.shade_speed_px_s / self.params.fps) % period
+        cols = (np.arange(self.width) - off) % period
+        return canvas[:, cols]
 
     def _sensor_noise(self, i: int) -> np.ndarray:
         """(H, W) float32 N(0, 1) noise of frame ``i``: a random window of a fixed bank.

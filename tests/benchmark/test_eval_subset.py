@@ -63,6 +63,11 @@ def test_the_splits_differ_in_seeds_and_ranges() -> None:
     assert sample_case("tuning", 3, condition="snow", camera="wind") == sample_case(
         "tuning", 3, condition="snow", camera="wind"
     )
+    # cloud shade in some scenes of each split, from a stream of its own
+    for cases in (tuning, evaluation):
+        shaded = [c for c in cases if c.params.shade > 0]
+        assert 0 < len(shaded) < len(cases)
+        assert all(0.2 <= c.params.shade <= 0.55 for c in shaded)
 
 
 def test_truth_of_a_transition_and_a_re_aimed_camera() -> None:

@@ -418,6 +418,25 @@ def test_darkness_dims_the_scene():
     assert night == pytest.approx(0.25 * day, rel=0.03)
 
 
+def test_cloud_shade_darkens_part_of_the_view_and_drifts():
+    sun = _scene(seed=8)
+    shaded = _scene(seed=8, shade=0.4, shade_speed_px_s=25.0, shade_cover=0.4, fps=25.0)
+    ratio = shaded.frame(0)[0].astype(float) / np.maximum(sun.frame(0)[0], 1)
+    lit = sun.frame(0)[0] > 40  # away from dark pixels, where rounding dominates
+    # light is multiplied: 1 in the sun, 0.6 under the cloud, a soft edge between
+    assert ratio[lit].max() == pytest.approx(1.0, abs=0.03)
+    assert ratio[lit].min() == pytest.approx(0.6, abs=0.03)
+    under = np.mean(ratio[lit] < 0.8)
+    assert 0.2 < under < 0.6  # about shade_cover of the view
+    # 25 px/s at 25 fps: a pixel a frame to the right, 10 in 10 frames
+    canvas_0 = shaded._shade_at(0)
+    assert np.array_equal(shaded._shade_at(10)[:, 10:], canvas_0[:, :-10])
+    # the precipitation's truth is the visible streaks of the shaded frame
+    rainy = _scene(seed=8, shade=0.4, rain=StreakParams(count=200))
+    _, truth = rainy.frame(3)
+    assert truth.mask.any() and truth.gain == 1.0  # the shade is not a global gain
+
+
 def test_sensor_noise_is_fresh_every_frame():
     scene = _scene(seed=9, sensor_noise=4.0)
     a, b = (scene.frame(i)[0].astype(float) for i in (0, 1))
