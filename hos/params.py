@@ -389,6 +389,18 @@ class RobustnessParams:
     #: exposure ramp (auto-exposure easing over a second) kept the frame up to 3 % off the
     #: background, 4-5 grey levels, and every flat pixel's noise became a candidate.
     gain_tolerance: float = 0.01
+    #: Beyond the paper: a change of light over part of the view (the shade of a passing
+    #: cloud) is undone cell by cell before the background model sees it, the way the global
+    #: gain is (``hos/shade.py``; docs/method.md, departure 31). The view is cut into
+    #: ``shade_cells`` cells across; a cell's gain is kept when the log ratios of its pixels
+    #: deviate from their median by at most ``shade_coherence`` times it (light multiplies
+    #: every pixel alike; an object does not) and it is more than ``gain_tolerance``, or,
+    #: where no shade is under way, more than ``shade_onset`` (a cloud's shade takes a fifth
+    #: of the light or more; rain's veil and a truck's spray change a cell by a few per
+    #: cent). 0: off.
+    shade_cells: int = 16
+    shade_coherence: float = 0.8
+    shade_onset: float = 0.05
     #: The camera cannot see rain when the region of interest is dark: when ``dark_share``
     #: of it (its brightest part: the reduced image's grey levels at the ``1 - dark_share``
     #: quantile) is under ``dark_level``. A lamp-lit street at night, mean grey 10, still
@@ -474,6 +486,9 @@ class RobustnessParams:
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")
+        _check(self.shade_cells >= 0, "shade_cells", "must be >= 0")
+        _check(self.shade_coherence > 0, "shade_coherence", "must be > 0")
+        _check(self.shade_onset >= 0, "shade_onset", "must be >= 0")
         _check(0 <= self.dark_level < 255, "dark_level", "must be in [0, 255)")
         _check(0 <= self.dark_share <= 1, "dark_share", "must be in [0, 1]")
         _check(0 < self.scene_change_fraction <= 1, "scene_change_fraction", "in (0, 1]")

@@ -68,6 +68,7 @@ from .motion import exposure_gain, global_translation, reduce
 from .params import DetectorParams
 from .ptype import SNOW, PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
+from .shade import apply_field, shade_field, upsample
 from .smoothing import Dwell, ParameterSmoother
 from .traffic import TrafficMap
 
@@ -78,6 +79,9 @@ if _jit.ENABLED:
 __all__ = ["HosDetector", "Segmented", "classify_blobs"]
 
 _GAIN_OUTLIER = 4.0  # grey levels on the reduced image
+_SHADE_MAX = math.log(2.0)  # a cloud's shade halves the light at most (departure 31)
+_BOX3 = np.ones((3, 3), np.uint8)
+_SHADE_DOUBT = 0.9  # a cell's shade in doubt keeps this much of itself a frame
 _REDUCED_WIDTH = 240  # the image used for brightness, gain and motion is about this wide
 # ... but reduced by at most 4: a wind's 1.5 px at 1920x1080 is 0.19 px of a 240-px image, too
 # little for the motion fit to tell from noise (it then reads 0 and nothing is undone), and
@@ -89,6 +93,16 @@ _RELEARN_RATE = 0.05
 #: Frames in a row repeating the one before that hold the verdict (a stream filling in
 #: dropped frames); more is a frozen stream, judged like any frame without fresh streaks.
 _REPEATS_HELD = 25
+
+
+def _in_cells(cells: np.ndarray, cell: float, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(N,) bool: whether each point (x, y) falls in a True cell of ``cells`` (cells of
+    ``cell`` pixels from the top left corner; points beyond the grid take its edge cell)."""
+    ny, nx = cells.shape
+    # (the background label's centroid is NaN: it lands in cell 0, and is the caller's to drop)
+    i = np.clip(np.nan_to_num(np.asarray(y) / cell), 0, ny - 1).astype(np.intp)
+    j = np.clip(np.nan_to_num(np.asarray(x) / cell), 0, nx - 1).astype(np.intp)
+    return cells[i, j]
 
 
 def classify_blobs(
@@ -168,6 +182,11 @@ class Segmented:
     roi: np.ndarray | None
     roi_area: int
     scale: int
+    #: cells of the view whose light changes in this frame (a cloud's shade coming or going,
+    #: and the cells next to them; departure 31), (ny, nx) bool or None, and the cells' side in
+    #: pixels of ``image``
+    shading: np.ndarray | None
+    shading_cell: float
     #: what is left of the camera's offset after ``image`` was moved back by whole pixels,
     #: (dx, dy) at full resolution: the background of eq. 8 is moved by it
     residual: tuple[float, float] = (0.0, 0.0)
@@ -250,6 +269,9 @@ class HosDetector:
         self._relearn = 0
         self._bg_small: np.ndarray | None = None
         self._gain = 1.0
+        self._shade: np.ndarray | None = None  # log gain of each cell (departure 31)
+        self._shading: np.ndarray | None = None  # cells whose light changes now
+        self._shading_cell = 0.0
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
         self._fg_rate: np.ndarray | None = None  # how often each reduced pixel was foreground
@@ -351,6 +373,8 @@ class HosDetector:
             roi_area=self._roi_area,
             scale=self._scale,
             residual=residual,
+            shading=self._shading,
+            shading_cell=self._shading_cell,
         )
 
     def _state(self, lit: float) -> str:
@@ -366,30 +390,84 @@ class HosDetector:
     def _compensate_exposure(
         self, gray: np.ndarray, small: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Undo global gain steps (auto-exposure) before the background model sees them.
+        """Undo global gain steps (auto-exposure) and local changes of light (cloud shade)
+        before the background model sees them.
 
         The applied gain relaxes back to 1 slowly (ten background memories), so that a real,
-        lasting change of light is absorbed by the background model without a foreground flash.
+        lasting change of light is absorbed by the background model without a foreground flash;
+        the shade's cells relax in one memory (departure 31).
         """
         rob = self.params.robustness
-        corrected_small = small * self._gain
+        history = self.params.segmentation.mog_history
+        shade = self._shade_gains(small.shape)
+        corrected_small = small * self._gain if shade is None else small * self._gain * shade
         if self._bg_small is None:
             self._bg_small = corrected_small.copy()
         residual = exposure_gain(corrected_small, self._bg_small)
         if abs(residual - 1.0) > rob.gain_tolerance:
             self._gain = min(max(self._gain * residual, 0.25), 4.0)
-            corrected_small = small * self._gain
-        relax = 1.0 / (10.0 * self.params.segmentation.mog_history)
+            corrected_small = small * self._gain if shade is None else small * self._gain * shade
+        relax = 1.0 / (10.0 * history)
         self._gain = 1.0 + (self._gain - 1.0) * (1.0 - relax)
+        if rob.shade_cells > 0:
+            # Beyond the paper (departure 31): what is left is a change of light over part of
+            # the view, undone cell by cell against the same reference, and kept (relaxing in
+            # one background memory, so that a lasting shade fades into the model) until the
+            # light comes back.
+            cell = self._shade_cell(small.shape)
+            active = None
+            if self._shade is not None:  # the cells corrected, and their neighbours
+                live = (np.abs(self._shade) > rob.gain_tolerance).astype(np.uint8)
+                active = cv2.dilate(live, _BOX3) > 0
+            seen = shade_field(
+                corrected_small,
+                self._bg_small,
+                cell=cell,
+                tolerance=rob.gain_tolerance,
+                coherence=rob.shade_coherence,
+                onset=rob.shade_onset,
+                active=active,
+            )
+            if seen is not None and (self._shade is None or self._shade.shape != seen.step.shape):
+                self._shade = np.zeros_like(seen.step)
+            self._shading = None
+            if seen is not None and seen.step.any():
+                changing = (seen.step != 0).view(np.uint8)
+                self._shading = cv2.dilate(changing, _BOX3) > 0
+                self._shading_cell = cell * self._scale
+            if seen is not None:
+                self._shade += seen.step
+                # a correction the frame no longer bears out (the shade has gone from a
+                # plain cell, an object came) fades in a second instead of a memory
+                self._shade[seen.doubt] *= np.float32(_SHADE_DOUBT)
+                np.clip(self._shade, -_SHADE_MAX, _SHADE_MAX, out=self._shade)
+                corrected_small = corrected_small * upsample(seen.step, cell, small.shape)
+            if self._shade is not None:
+                self._shade *= np.float32(1.0 - 1.0 / history)
+                if float(np.abs(self._shade).max()) < 0.003:
+                    self._shade = None
         # Beyond the paper: each pixel's step is clipped to a few grey levels (a Huber running
         # mean). Rain only brightens: learnt in full, its streaks made the reference brighter
         # than a frame's typical pixel in heavy rain, and the median ratio read a gain of
         # 0.5-1 % a frame that was not there. Clipped, a drop moves it by 0.2 grey levels.
         step = np.clip(corrected_small - self._bg_small, -_GAIN_OUTLIER, _GAIN_OUTLIER)
         self._bg_small += np.float32(0.05) * step
+        if self._shade is not None:
+            cell = self._shade_cell(small.shape) * self._scale
+            return apply_field(gray, self._shade, self._gain, cell), corrected_small
         if abs(self._gain - 1.0) < 0.003:
             return gray, corrected_small
         return cv2.convertScaleAbs(gray, alpha=self._gain), corrected_small
+
+    def _shade_cell(self, shape: tuple[int, int]) -> int:
+        """The side of the shade's cells, pixels of the reduced image (even)."""
+        return 2 * max(-(-shape[1] // (2 * self.params.robustness.shade_cells)), 1)
+
+    def _shade_gains(self, shape: tuple[int, int]) -> np.ndarray | None:
+        """(h, w) gains of the shade's cells on the reduced image, or None."""
+        if self._shade is None:
+            return None
+        return upsample(self._shade, self._shade_cell(shape), shape)
 
     # -- stage 2: blobs, HOS, mixture, decision, rain pixels, intensity ----------------------
     def analyse(self, seg: Segmented) -> FrameResult:
@@ -565,6 +643,13 @@ class HosDetector:
             )
             accepted &= ~moved_edge_
             structural |= moved_edge_
+        # 3e. where the light changes in this frame (a cloud's shade coming or going, beyond
+        # the paper, departure 31), what eq. 8 cuts out is what the correction missed of it
+        if seg.shading is not None:
+            lit = _in_cells(seg.shading, seg.shading_cell, mom.x0, mom.y0)
+            lit[0] = False
+            accepted &= ~lit
+            structural |= lit
         idx = np.flatnonzero(accepted)
         flicker = self._flicker(comparable and state == State.OK and not hold)
 
@@ -977,7 +1062,7 @@ class HosDetector:
         return found
 
     def _flicker(self, judged: bool) -> bool:
-        """Step 3e: take in how many of the last frame's rain blobs this frame showed again,
+        """Step 3f: take in how many of the last frame's rain blobs this frame showed again,
         and say whether their running share exceeds ``decision.flicker_share``
         (departure 29)."""
         dp = self.params.decision
