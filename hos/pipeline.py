@@ -70,7 +70,7 @@ from .ptype import SNOW, PrecipitationTypeVote, blob_contrast, frame_vote, strea
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .shade import apply_field, shade_field, upsample
 from .smoothing import Dwell, ParameterSmoother
-from .traffic import TrafficMap
+from .traffic import TrafficMap, grid_cells
 
 if _jit.ENABLED:
     from ._jit_mixture import fit_mixture_jit
@@ -98,11 +98,8 @@ _REPEATS_HELD = 25
 def _in_cells(cells: np.ndarray, cell: float, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """(N,) bool: whether each point (x, y) falls in a True cell of ``cells`` (cells of
     ``cell`` pixels from the top left corner; points beyond the grid take its edge cell)."""
-    ny, nx = cells.shape
     # (the background label's centroid is NaN: it lands in cell 0, and is the caller's to drop)
-    i = np.clip(np.nan_to_num(np.asarray(y) / cell), 0, ny - 1).astype(np.intp)
-    j = np.clip(np.nan_to_num(np.asarray(x) / cell), 0, nx - 1).astype(np.intp)
-    return cells[i, j]
+    return cells.reshape(-1)[grid_cells(x, y, cell, cells.shape)]
 
 
 def classify_blobs(
@@ -270,8 +267,6 @@ class HosDetector:
         self._bg_small: np.ndarray | None = None
         self._gain = 1.0
         self._shade: np.ndarray | None = None  # log gain of each cell (departure 31)
-        self._shading: np.ndarray | None = None  # cells whose light changes now
-        self._shading_cell = 0.0
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
         self._fg_rate: np.ndarray | None = None  # how often each reduced pixel was foreground
@@ -321,7 +316,7 @@ class HosDetector:
             values = in_roi.reshape(-1)
             k = int((1.0 - rob.dark_share) * (values.size - 1))
             lit = float(np.partition(values, k)[k])
-        frame, corrected_small = self._compensate_exposure(gray, small)
+        frame, corrected_small, shading, shading_cell = self._compensate_exposure(gray, small)
         # 1b. camera motion (beyond the paper): a camera shaken by the wind is held still by
         # translating each frame back onto the reference before the background model sees it
         motion_px, (shift_x, shift_y) = self._camera_offset(corrected_small)
@@ -373,8 +368,8 @@ class HosDetector:
             roi_area=self._roi_area,
             scale=self._scale,
             residual=residual,
-            shading=self._shading,
-            shading_cell=self._shading_cell,
+            shading=shading,
+            shading_cell=shading_cell,
         )
 
     def _state(self, lit: float) -> str:
@@ -389,9 +384,11 @@ class HosDetector:
 
     def _compensate_exposure(
         self, gray: np.ndarray, small: np.ndarray
-    ) -> tuple[np.ndarray, np.ndarray]:
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, float]:
         """Undo global gain steps (auto-exposure) and local changes of light (cloud shade)
-        before the background model sees them.
+        before the background model sees them: the frame and the reduced frame so corrected,
+        and the cells whose light changed in this frame (with their neighbours; None when
+        none did) with the cells' side in pixels of the frame (departure 31).
 
         The applied gain relaxes back to 1 slowly (ten background memories), so that a real,
         lasting change of light is absorbed by the background model without a foreground flash;
@@ -409,6 +406,7 @@ class HosDetector:
             corrected_small = small * self._gain if shade is None else small * self._gain * shade
         relax = 1.0 / (10.0 * history)
         self._gain = 1.0 + (self._gain - 1.0) * (1.0 - relax)
+        shading, shading_cell = None, 0.0
         if rob.shade_cells > 0:
             # Beyond the paper (departure 31): what is left is a change of light over part of
             # the view, undone cell by cell against the same reference, and kept (relaxing in
@@ -428,14 +426,12 @@ class HosDetector:
                 onset=rob.shade_onset,
                 active=active,
             )
-            if seen is not None and (self._shade is None or self._shade.shape != seen.step.shape):
-                self._shade = np.zeros_like(seen.step)
-            self._shading = None
-            if seen is not None and seen.step.any():
-                changing = (seen.step != 0).view(np.uint8)
-                self._shading = cv2.dilate(changing, _BOX3) > 0
-                self._shading_cell = cell * self._scale
             if seen is not None:
+                if self._shade is None or self._shade.shape != seen.step.shape:
+                    self._shade = np.zeros_like(seen.step)
+                if seen.step.any():
+                    shading = cv2.dilate((seen.step != 0).view(np.uint8), _BOX3) > 0
+                    shading_cell = cell * self._scale
                 self._shade += seen.step
                 # a correction the frame no longer bears out (the shade has gone from a
                 # plain cell, an object came) fades in a second instead of a memory
@@ -454,10 +450,12 @@ class HosDetector:
         self._bg_small += np.float32(0.05) * step
         if self._shade is not None:
             cell = self._shade_cell(small.shape) * self._scale
-            return apply_field(gray, self._shade, self._gain, cell), corrected_small
-        if abs(self._gain - 1.0) < 0.003:
-            return gray, corrected_small
-        return cv2.convertScaleAbs(gray, alpha=self._gain), corrected_small
+            frame = apply_field(gray, self._shade, self._gain, cell)
+        elif abs(self._gain - 1.0) < 0.003:
+            frame = gray
+        else:
+            frame = cv2.convertScaleAbs(gray, alpha=self._gain)
+        return frame, corrected_small, shading, shading_cell
 
     def _shade_cell(self, shape: tuple[int, int]) -> int:
         """The side of the shade's cells, pixels of the reduced image (even)."""

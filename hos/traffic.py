@@ -24,10 +24,22 @@ import math
 import cv2
 import numpy as np
 
-__all__ = ["TrafficMap"]
+__all__ = ["TrafficMap", "grid_cells"]
 
 _SQUARE = cv2.getStructuringElement(cv2.MORPH_RECT, (3, 3))
 _BLOCK = np.ones((2, 2), np.uint8)
+
+
+def grid_cells(x: np.ndarray, y: np.ndarray, cell: float, grid: tuple[int, int]) -> np.ndarray:
+    """(N,) intp: the flat index, in a ``grid`` (rows, columns) of cells of ``cell`` pixels
+    from the top left corner, of the cell each point (pixels) lies in; points beyond the grid
+    take its edge cell."""
+    # NaN (a label without pixels) goes to cell 0; such a blob is in no rule's way
+    gy = np.nan_to_num(np.asarray(y, dtype=np.float64) / cell).astype(np.intp)
+    gx = np.nan_to_num(np.asarray(x, dtype=np.float64) / cell).astype(np.intp)
+    gy = np.clip(gy, 0, grid[0] - 1)
+    gx = np.clip(gx, 0, grid[1] - 1)
+    return gy * grid[1] + gx
 
 
 class TrafficMap:
@@ -135,12 +147,7 @@ class TrafficMap:
 
     def cells(self, x: np.ndarray, y: np.ndarray) -> np.ndarray:
         """(N,) intp: the flat index of the cell each point (pixels) lies in."""
-        # NaN (a label without pixels) goes to cell 0; such a blob is in no rule's way
-        gy = np.nan_to_num(np.asarray(y, dtype=np.float64) / self.cell).astype(np.intp)
-        gx = np.nan_to_num(np.asarray(x, dtype=np.float64) / self.cell).astype(np.intp)
-        gy = np.clip(gy, 0, self.grid[0] - 1)
-        gx = np.clip(gx, 0, self.grid[1] - 1)
-        return gy * self.grid[1] + gx
+        return grid_cells(x, y, self.cell, self.grid)
 
     def covers(self, cells: np.ndarray) -> np.ndarray:
         """(N,) bool: whether each cell (flat indices from :meth:`cells`) is a traffic cell of
