@@ -165,6 +165,8 @@ class PhotometricRule:
         learning_rate: float = -1.0,
         neighbourhood: bool = False,
         offset: tuple[float, float] = (0.0, 0.0),
+        relevel: int = 0,
+        relevel_mask: np.ndarray | None = None,
     ) -> np.ndarray:
         """Candidate pixels of ``gray``, (N,) intp ascending flat indices; learns the background.
 
@@ -175,7 +177,11 @@ class PhotometricRule:
         to a pixel; see :func:`neighbourhood_background`). ``offset``: (dx, dy), where ``gray``
         is off the background's place by a fraction of a pixel (a camera in the wind, moved
         back by whole pixels): the background is moved there (bilinear) before the comparison.
-        Resampling the background costs nothing a streak needs: it has none.
+        Resampling the background costs nothing a streak needs: it has none. ``relevel`` > 0:
+        the background is first raised or lowered by the frame's local level over it, in
+        blocks of that many pixels (:func:`relevelled`; a shade's edge the exposure
+        correction missed, departure 32), where ``relevel_mask`` (H, W) uint8 is nonzero
+        (everywhere when None).
         """
         if self._background is None or self._background.shape != gray.shape:
             self._background = gray.astype(np.float32)
@@ -188,6 +194,11 @@ class PhotometricRule:
             reference = translate(reference, offset[0], offset[1])
         if neighbourhood:
             reference = neighbourhood_background(reference)
+        if relevel > 0:
+            levelled = relevelled(gray, reference, relevel)
+            if relevel_mask is not None:
+                levelled = cv2.copyTo(levelled, relevel_mask, reference.copy())
+            reference = levelled
         if self._compiled:
             index, _ = _jit.photometric_candidates(gray, fg, reference, c=c)
         else:
@@ -214,6 +225,24 @@ class PhotometricRule:
         compounded = 1.0 - (1.0 - rate) ** bands
         cv2.accumulateWeighted(gray[lo:hi], band, compounded, mask=cv2.bitwise_not(fg[lo:hi]))
         self._background_u8[lo:hi] = cv2.convertScaleAbs(band)
+
+
+def relevelled(gray: np.ndarray, reference: np.ndarray, scale: int) -> np.ndarray:
+    """``reference`` raised (or lowered) by the local level of ``gray - reference``: the
+    median over 5 x 5 blocks of ``scale`` x ``scale`` pixels (area means), bilinear between
+    blocks. A change of light smoother than the window leaves eq. 8's comparison; a streak,
+    a column of blocks at most, does not move the median."""
+    h, w = gray.shape
+    diff = cv2.addWeighted(gray, 1.0, reference, -1.0, 128.0, dtype=cv2.CV_8U)
+    if scale > 1:
+        size = (max(w // scale, 1), max(h // scale, 1))
+        small = cv2.resize(diff, size, interpolation=cv2.INTER_AREA)
+    else:
+        small = diff
+    level = cv2.medianBlur(small, 5)
+    if scale > 1:
+        level = cv2.resize(level, (w, h), interpolation=cv2.INTER_LINEAR)
+    return cv2.addWeighted(reference, 1.0, level, 1.0, -128.0, dtype=cv2.CV_8U)
 
 
 class FrameDiffSegmenter:

@@ -401,6 +401,12 @@ class RobustnessParams:
     shade_cells: int = 16
     shade_coherence: float = 0.8
     shade_onset: float = 0.05
+    #: Beyond the paper (departure 32): while a shade is corrected, eq. 8 compares each pixel
+    #: with the background raised or lowered by the local level of the frame's difference to
+    #: it (the median over 5 x 5 blocks of the reduced image's pixels), so that what the
+    #: cells' correction misses of a shade (its edge inside a cell) leaves the candidates,
+    #: and a streak, a column of blocks at most, stays. False: eq. 8 as before.
+    shade_relevel: bool = True
     #: The camera cannot see rain when the region of interest is dark: when ``dark_share``
     #: of it (its brightest part: the reduced image's grey levels at the ``1 - dark_share``
     #: quantile) is under ``dark_level``. A lamp-lit street at night, mean grey 10, still
