@@ -13,6 +13,9 @@ not absolute speeds.
 file: what a user waits for) and its processing alone, from the frame rate the command reports
 on stderr (start-up excluded). Both are compared with decode + MOG2 in this process.
 
+The first size is timed again under a drifting cloud's shade, beside the same street without
+it: the cost of departures 31 and 32 while a correction is live, as two ratios to the floor.
+
     python bench/bench_detector.py            # 960x540 and 1920x1080, soak of 15,000 frames
     python bench/bench_detector.py --quick    # smaller, for a smoke check
 """
@@ -45,13 +48,18 @@ from hos.background import create_mog2  # noqa: E402
 RESULTS = REPO / "bench" / "results"
 
 
-def render_clip(path: Path, width: int, height: int, frames: int) -> None:
-    """A busy street, clear for the first fifth, then moderate rain."""
+def render_clip(path: Path, width: int, height: int, frames: int, shade: float = 0.0) -> None:
+    """A busy street, clear for the first fifth, then moderate rain; ``shade`` > 0: under
+    a cloud's shade taking that share of the light, drifting 60 px/s at 640 columns (what
+    departures 31 and 32 cost: the cells' correction, the frame's multiplication, eq. 8
+    re-levelled)."""
     scale = (width / 960) ** 2
     params = SceneParams.busy(
         shake_px=0.0,
         rain=StreakParams(mu_deg=80, count=int(500 * scale), width_px=max(1.0, width / 960)),
         schedule=[0] * (frames // 5) + [1],
+        shade=shade,
+        shade_speed_px_s=60.0 * width / 640,
     )
     scene = Scene(width, height, seed=7, params=params)
     write_video(path, (scene.frame(i)[0] for i in range(frames)), fps=25)
@@ -120,6 +128,46 @@ def timed(fn, clip: Path) -> tuple[float, int]:
     t0 = time.perf_counter()
     n = fn(clip)
     return time.perf_counter() - t0, n
+
+
+def bench_shade(width: int, height: int, frames: int, repeats: int, workdir: Path) -> dict:
+    """The detector on the same street under a drifting cloud's shade, and without, against
+    the same floor: what departures 31 and 32 cost while a correction is live."""
+    clips = {}
+    for shade in (0.0, 0.4):
+        clips[shade] = workdir / f"rain_{width}x{height}_{frames}_shade{shade:.1f}.mp4"
+        if not clips[shade].exists():
+            print(f"rendering {clips[shade].name} ...", flush=True)
+            render_clip(clips[shade], width, height, frames, shade=shade)
+    runs = {
+        "decode+mog2, shade": (run_floor, clips[0.4]),
+        "detector, shade": (run_detector, clips[0.4]),
+        "decode+mog2, no shade": (run_floor, clips[0.0]),
+        "detector, no shade": (run_detector, clips[0.0]),
+    }
+    best = {name: float("inf") for name in runs}
+    for _ in range(repeats):  # interleaved
+        for name, (fn, clip) in runs.items():
+            dt, _ = timed(fn, clip)
+            best[name] = min(best[name], dt)
+    row = {
+        "size": f"{width}x{height}",
+        "frames": frames,
+        "shade": 0.4,
+        "ratio_detector_to_floor_shade": round(
+            best["detector, shade"] / best["decode+mog2, shade"], 3
+        ),
+        "ratio_detector_to_floor_no_shade": round(
+            best["detector, no shade"] / best["decode+mog2, no shade"], 3
+        ),
+    }
+    print(
+        f"{row['size']:>10}  under a 40 % cloud shade: detector x"
+        f"{row['ratio_detector_to_floor_shade']:.2f} of its floor; the same street without"
+        f" it x{row['ratio_detector_to_floor_no_shade']:.2f}",
+        flush=True,
+    )
+    return row
 
 
 def bench_size(width: int, height: int, frames: int, repeats: int, workdir: Path) -> dict:
@@ -223,7 +271,9 @@ def main() -> int:
         work = args.clips or Path(tmp)
         work.mkdir(parents=True, exist_ok=True)
         rows = [bench_size(w, h, n, args.repeats, work) for w, h, n in sizes]
-    result = {"speed": rows, "soak": soak(soak_frames)}
+        w, h, n = sizes[0]
+        shaded = bench_shade(w, h, n, args.repeats, work)
+    result = {"speed": rows, "shade": shaded, "soak": soak(soak_frames)}
     out = RESULTS / "latest.json"
     out.write_text(json.dumps(result, indent=2))
     print(f"results in {out.relative_to(REPO)}")

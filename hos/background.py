@@ -180,8 +180,8 @@ class PhotometricRule:
         Resampling the background costs nothing a streak needs: it has none. ``relevel`` > 0:
         the background is first raised or lowered by the frame's local level over it, in
         blocks of that many pixels (:func:`relevelled`; a shade's edge the exposure
-        correction missed, departure 32), where ``relevel_mask`` (H, W) uint8 is nonzero
-        (everywhere when None).
+        correction missed, departure 32), weighted by ``relevel_mask`` (one float32 weight
+        a block, 1 where to re-level; None: everywhere).
         """
         if self._background is None or self._background.shape != gray.shape:
             self._background = gray.astype(np.float32)
@@ -195,10 +195,7 @@ class PhotometricRule:
         if neighbourhood:
             reference = neighbourhood_background(reference)
         if relevel > 0:
-            levelled = relevelled(gray, reference, relevel)
-            if relevel_mask is not None:
-                levelled = cv2.copyTo(levelled, relevel_mask, reference.copy())
-            reference = levelled
+            reference = relevelled(gray, reference, relevel, relevel_mask)
         if self._compiled:
             index, _ = _jit.photometric_candidates(gray, fg, reference, c=c)
         else:
@@ -227,21 +224,36 @@ class PhotometricRule:
         self._background_u8[lo:hi] = cv2.convertScaleAbs(band)
 
 
-def relevelled(gray: np.ndarray, reference: np.ndarray, scale: int) -> np.ndarray:
+def relevelled(
+    gray: np.ndarray, reference: np.ndarray, scale: int, where: np.ndarray | None = None
+) -> np.ndarray:
     """``reference`` raised (or lowered) by the local level of ``gray - reference``: the
     median over 5 x 5 blocks of ``scale`` x ``scale`` pixels (area means), bilinear between
     blocks. A change of light smoother than the window leaves eq. 8's comparison; a streak,
-    a column of blocks at most, does not move the median."""
+    a column of blocks at most, does not move the median.
+
+    ``where``: (h // scale, w // scale) float32 weights of the blocks' levels (1: re-levelled,
+    0: not; None: everywhere), so that the level fades over a block at the border of what is
+    re-levelled. Four passes over the frame: the two area reductions, the upsampling and the
+    addition; the median is taken on the blocks.
+    """
     h, w = gray.shape
-    diff = cv2.addWeighted(gray, 1.0, reference, -1.0, 128.0, dtype=cv2.CV_8U)
+    hs, ws = max(h // scale, 1), max(w // scale, 1)
     if scale > 1:
-        size = (max(w // scale, 1), max(h // scale, 1))
-        small = cv2.resize(diff, size, interpolation=cv2.INTER_AREA)
+        # whole blocks only (OpenCV's fast path); the last rows and columns take the edge's
+        hb, wb = min(hs * scale, h), min(ws * scale, w)
+        gray = cv2.resize(gray[:hb, :wb], (ws, hs), interpolation=cv2.INTER_AREA)
+        small = cv2.resize(reference[:hb, :wb], (ws, hs), interpolation=cv2.INTER_AREA)
     else:
-        small = diff
-    level = cv2.medianBlur(small, 5)
+        small = reference
+    # the level, offset by 128 grey levels in uint8 (differences past 127 are not a shade's)
+    level = cv2.medianBlur(cv2.addWeighted(gray, 1.0, small, -1.0, 128.0, dtype=cv2.CV_8U), 5)
+    if where is not None:  # on the blocks: cheap
+        level = cv2.convertScaleAbs((level.astype(np.float32) - 128.0) * where + 128.0)
     if scale > 1:
-        level = cv2.resize(level, (w, h), interpolation=cv2.INTER_LINEAR)
+        level = cv2.resize(level, (wb, hb), interpolation=cv2.INTER_LINEAR)
+        if (hb, wb) != (h, w):
+            level = cv2.copyMakeBorder(level, 0, h - hb, 0, w - wb, cv2.BORDER_REPLICATE)
     return cv2.addWeighted(reference, 1.0, level, 1.0, -128.0, dtype=cv2.CV_8U)
 
 

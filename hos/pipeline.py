@@ -189,8 +189,8 @@ class Segmented:
     residual: tuple[float, float] = (0.0, 0.0)
     #: while a shade is corrected, the side in pixels of the blocks over which eq. 8's
     #: background is re-levelled to the frame (``robustness.shade_relevel``, departure 32;
-    #: 0: not), and where: (H, W) uint8, nonzero in the cells whose correction is a shade's
-    #: (more than ``shade_onset``) and next to them
+    #: 0: not), and where: (h, w) float32 over the blocks (the reduced image), 1 in the cells
+    #: whose correction is a shade's (more than ``shade_onset``) and next to them
     relevel: int = 0
     relevel_mask: np.ndarray | None = None
 
@@ -359,7 +359,7 @@ class HosDetector:
         if self._frames_seen > rob.warmup_frames and changed > rob.scene_change_fraction:
             self._relearn = rob.warmup_frames
         self._remember_foreground(foreground, changed)
-        relevel_mask = self._relevel_mask(gray.shape, small.shape) if rob.shade_relevel else None
+        relevel_mask = self._relevel_mask(small.shape) if rob.shade_relevel else None
         return Segmented(
             frame=self._index,
             t_s=float(t_s),
@@ -466,26 +466,22 @@ class HosDetector:
             frame = cv2.convertScaleAbs(gray, alpha=self._gain)
         return frame, corrected_small, shading, shading_cell
 
-    def _relevel_mask(
-        self, shape: tuple[int, int], small_shape: tuple[int, int]
-    ) -> np.ndarray | None:
-        """(H, W) uint8, nonzero in the cells whose correction is a shade's (more than
-        ``shade_onset``) and in the cells next to them; None when there are none (departure
-        32: a correction of a few per cent leaves too little to matter to eq. 8, and the
-        re-levelling costs a streak in dense rain what the rain's veil adds to its blocks)."""
+    def _relevel_mask(self, small_shape: tuple[int, int]) -> np.ndarray | None:
+        """(h, w) float32 over the reduced image, 1 in the cells whose correction is a
+        shade's (more than ``shade_onset``) and in the cells next to them, 0 elsewhere; None
+        when there are none (departure 32: a correction of a few per cent leaves too little
+        to matter to eq. 8, and the re-levelling costs a streak in dense rain what the rain's
+        veil adds to its blocks)."""
         if self._shade is None:
             return None
         strong = (np.abs(self._shade) > self.params.robustness.shade_onset).view(np.uint8)
         if not strong.any():
             return None
-        cells = cv2.dilate(strong, _BOX3)
-        side = self._shade_cell(small_shape) * self._scale
-        ny, nx = cells.shape
-        # the cells cover the reduced image, which drops the frame's last rows and columns
-        # when its size is not a multiple of the reduction: those take the edge cells
-        span = (max(nx * side, shape[1]), max(ny * side, shape[0]))
-        full = cv2.resize(cells, span, interpolation=cv2.INTER_NEAREST)
-        return full[: shape[0], : shape[1]]
+        cells = cv2.dilate(strong, _BOX3).astype(np.float32)
+        side = self._shade_cell(small_shape)
+        ny, nx = cells.shape  # the cells cover the reduced image (ny * side >= its height)
+        full = cv2.resize(cells, (nx * side, ny * side), interpolation=cv2.INTER_NEAREST)
+        return full[: small_shape[0], : small_shape[1]]
 
     def _shade_cell(self, shape: tuple[int, int]) -> int:
         """The side of the shade's cells, pixels of the reduced image (even)."""

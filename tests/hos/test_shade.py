@@ -298,8 +298,8 @@ def test_eq8_is_relevelled_only_where_the_mask_says(compiled: bool) -> None:
     ramp = 1.0 + 0.1 * np.clip((np.arange(640) - 200) / 200.0, 0.0, 1.0)
     frame, streaks = _streaked(np.clip(background * ramp[None, :], 0, 255).astype(np.uint8))
     everything = np.full(frame.shape, 255, np.uint8)
-    mask = np.zeros(frame.shape, np.uint8)
-    mask[:, :420] = 1  # the left of the ramp's residue is in shade's cells, the right is not
+    mask = np.zeros((180, 320), np.float32)  # one weight a block of 2 x 2 pixels
+    mask[:, :210] = 1.0  # the left of the ramp's residue is in shade's cells, the right is not
     rule = PhotometricRule(SegmentationParams(), compiled=compiled)
     rule.candidates(background, everything)  # learns the background
     index = rule.candidates(frame, everything, relevel=2, relevel_mask=mask)
@@ -312,22 +312,28 @@ def test_eq8_is_relevelled_only_where_the_mask_says(compiled: bool) -> None:
 
 
 @pytest.mark.parametrize("size", [(360, 640), (361, 643), (240, 320), (1081, 1921)])
-def test_the_relevel_mask_covers_the_frame_in_the_strong_cells(size: tuple[int, int]) -> None:
-    """The mask of departure 32 is the frame's size whatever the reduction leaves over, set
-    in the cells whose correction passes ``shade_onset`` and their neighbours, and None when
-    every correction is weak."""
+def test_the_relevel_mask_covers_the_blocks_in_the_strong_cells(size: tuple[int, int]) -> None:
+    """The weights of departure 32 cover the reduced image whatever its size, 1 in the cells
+    whose correction passes ``shade_onset`` and their neighbours, 0 elsewhere, None when
+    every correction is weak; and eq. 8's background re-levelled with them is the frame's
+    size."""
     h, w = size
     det = HosDetector(DetectorParams())
     det.process(np.full(size, 100, np.uint8), 0.0)
     small = (h // det._scale, w // det._scale)
-    side = det._shade_cell(small) * det._scale
-    ny, nx = -(-small[0] // det._shade_cell(small)), -(-small[1] // det._shade_cell(small))
+    side = det._shade_cell(small)
+    ny, nx = -(-small[0] // side), -(-small[1] // side)
     det._shade = np.zeros((ny, nx), np.float32)
     det._shade[0, 0] = 0.02  # weak: a busy road's
-    assert det._relevel_mask(size, small) is None
+    assert det._relevel_mask(small) is None
     det._shade[ny - 1, nx - 1] = -0.2  # a shade's, in the bottom right corner
-    mask = det._relevel_mask(size, small)
-    assert mask is not None and mask.shape == size
+    mask = det._relevel_mask(small)
+    assert mask is not None and mask.shape == small and mask.dtype == np.float32
     y, x = (ny - 2) * side, (nx - 2) * side  # the neighbour cell's top left corner
-    assert mask[-1, -1] and mask[y + 3, x + 3]
-    assert not mask[0, 0] and not mask[y - 3, x - 3]
+    assert mask[-1, -1] == 1.0 and mask[y, x] == 1.0
+    assert mask[0, 0] == 0.0 and mask[y - 1, x - 1] == 0.0
+    frame = np.full(size, 120, np.uint8)
+    reference = np.full(size, 100, np.uint8)
+    out = relevelled(frame, reference, det._scale, mask)
+    assert out.shape == size
+    assert out[-1, -1] == 120 and out[0, 0] == 100
