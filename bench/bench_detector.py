@@ -130,20 +130,31 @@ def timed(fn, clip: Path) -> tuple[float, int]:
     return time.perf_counter() - t0, n
 
 
+#: the share of the light the cloud's shade of :func:`bench_shade` takes
+SHADE = 0.4
+
+
+def clip_for(workdir: Path, width: int, height: int, frames: int, shade: float = 0.0) -> Path:
+    """The rendered clip of :func:`render_clip` in ``workdir``, rendered on first use."""
+    suffix = f"_shade{shade:.1f}" if shade else ""
+    clip = workdir / f"rain_{width}x{height}_{frames}{suffix}.mp4"
+    if not clip.exists():
+        print(f"rendering {clip.name} ...", flush=True)
+        render_clip(clip, width, height, frames, shade=shade)
+    return clip
+
+
 def bench_shade(width: int, height: int, frames: int, repeats: int, workdir: Path) -> dict:
-    """The detector on the same street under a drifting cloud's shade, and without, against
-    the same floor: what departures 31 and 32 cost while a correction is live."""
-    clips = {}
-    for shade in (0.0, 0.4):
-        clips[shade] = workdir / f"rain_{width}x{height}_{frames}_shade{shade:.1f}.mp4"
-        if not clips[shade].exists():
-            print(f"rendering {clips[shade].name} ...", flush=True)
-            render_clip(clips[shade], width, height, frames, shade=shade)
+    """The detector on the same street under a drifting cloud's shade, and without (the clip
+    of :func:`bench_size`), against the same floor: what departures 31 and 32 cost while a
+    correction is live."""
+    shaded = clip_for(workdir, width, height, frames, SHADE)
+    plain = clip_for(workdir, width, height, frames)
     runs = {
-        "decode+mog2, shade": (run_floor, clips[0.4]),
-        "detector, shade": (run_detector, clips[0.4]),
-        "decode+mog2, no shade": (run_floor, clips[0.0]),
-        "detector, no shade": (run_detector, clips[0.0]),
+        "decode+mog2, shade": (run_floor, shaded),
+        "detector, shade": (run_detector, shaded),
+        "decode+mog2, no shade": (run_floor, plain),
+        "detector, no shade": (run_detector, plain),
     }
     best = {name: float("inf") for name in runs}
     for _ in range(repeats):  # interleaved
@@ -153,7 +164,7 @@ def bench_shade(width: int, height: int, frames: int, repeats: int, workdir: Pat
     row = {
         "size": f"{width}x{height}",
         "frames": frames,
-        "shade": 0.4,
+        "shade": SHADE,
         "ratio_detector_to_floor_shade": round(
             best["detector, shade"] / best["decode+mog2, shade"], 3
         ),
@@ -162,7 +173,7 @@ def bench_shade(width: int, height: int, frames: int, repeats: int, workdir: Pat
         ),
     }
     print(
-        f"{row['size']:>10}  under a 40 % cloud shade: detector x"
+        f"{row['size']:>10}  under a {SHADE * 100:.0f} % cloud shade: detector x"
         f"{row['ratio_detector_to_floor_shade']:.2f} of its floor; the same street without"
         f" it x{row['ratio_detector_to_floor_no_shade']:.2f}",
         flush=True,
@@ -171,10 +182,7 @@ def bench_shade(width: int, height: int, frames: int, repeats: int, workdir: Pat
 
 
 def bench_size(width: int, height: int, frames: int, repeats: int, workdir: Path) -> dict:
-    clip = workdir / f"rain_{width}x{height}_{frames}.mp4"
-    if not clip.exists():
-        print(f"rendering {clip.name} ...", flush=True)
-        render_clip(clip, width, height, frames)
+    clip = clip_for(workdir, width, height, frames)
     variants = {
         "decode": run_decode,
         "decode+mog2": run_floor,

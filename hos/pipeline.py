@@ -187,11 +187,10 @@ class Segmented:
     #: what is left of the camera's offset after ``image`` was moved back by whole pixels,
     #: (dx, dy) at full resolution: the background of eq. 8 is moved by it
     residual: tuple[float, float] = (0.0, 0.0)
-    #: while a shade is corrected, the side in pixels of the blocks over which eq. 8's
-    #: background is re-levelled to the frame (``robustness.shade_relevel``, departure 32;
-    #: 0: not), and where: (h, w) float32 over the blocks (the reduced image), 1 in the cells
-    #: whose correction is a shade's (more than ``shade_onset``) and next to them
-    relevel: int = 0
+    #: where eq. 8's background is re-levelled to the frame in blocks of ``scale`` pixels
+    #: (``robustness.shade_relevel``, departure 32): (h, w) float32 over the blocks (the
+    #: reduced image), 1 in the cells whose correction is a shade's (more than
+    #: ``shade_onset``) and next to them; None: nowhere
     relevel_mask: np.ndarray | None = None
 
 
@@ -377,7 +376,6 @@ class HosDetector:
             residual=residual,
             shading=shading,
             shading_cell=shading_cell,
-            relevel=self._scale if relevel_mask is not None else 0,
             relevel_mask=relevel_mask,
         )
 
@@ -555,7 +553,7 @@ class HosDetector:
                 learning_rate=seg.learning_rate,
                 neighbourhood=self._shaken > 0,
                 offset=seg.residual,
-                relevel=seg.relevel,
+                relevel=seg.scale if seg.relevel_mask is not None else 0,
                 relevel_mask=seg.relevel_mask,
             )
         else:  # the frame difference rule's mask is the candidates
