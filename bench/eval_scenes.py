@@ -122,11 +122,21 @@ def detector_params(overrides: tuple[str, ...] = ()) -> DetectorParams:
     for item in overrides:
         key, _, value = item.partition("=")
         section, _, name = key.partition(".")
-        try:
-            parsed = ast.literal_eval(value)
-        except (ValueError, SyntaxError):
-            parsed = value
-        sub = replace(getattr(params, section), **{name: parsed})
+        if value.strip().lower() in ("true", "false"):  # TOML's spelling, as in weatherd.toml
+            parsed: object = value.strip().lower() == "true"
+        else:
+            try:
+                parsed = ast.literal_eval(value)
+            except (ValueError, SyntaxError):
+                parsed = value
+        group = getattr(params, section)
+        default = getattr(group, name)
+        # A switch given a word or a number would be truthy whatever it says ("false" was).
+        if isinstance(default, bool) != isinstance(parsed, bool) or (
+            isinstance(default, (int, float)) and isinstance(parsed, str)
+        ):
+            raise ValueError(f"{key}: {value!r} is not a {type(default).__name__}")
+        sub = replace(group, **{name: parsed})
         params = replace(params, **{section: sub})
     return params
 

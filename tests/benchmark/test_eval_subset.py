@@ -238,3 +238,10 @@ def test_overrides_are_literals_or_bare_words() -> None:
     )
     with pytest.raises(ValueError, match="motion_gradient"):
         ev.detector_params(("robustness.motion_gradient=sideways",))
+    # TOML's spelling of a switch is a switch, not a (truthy) word; a word is no switch
+    assert ev.detector_params(("robustness.shade_relevel=false",)).robustness.shade_relevel is False
+    assert ev.detector_params(("robustness.stabilise=TRUE",)).robustness.stabilise is True
+    with pytest.raises(ValueError, match="shade_relevel"):
+        ev.detector_params(("robustness.shade_relevel=off",))
+    with pytest.raises(ValueError, match="min_blobs"):
+        ev.detector_params(("decision.min_blobs=many",))
