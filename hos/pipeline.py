@@ -83,6 +83,18 @@ _SHADE_MAX = math.log(2.0)  # a cloud's shade halves the light at most (departur
 _BOX3 = np.ones((3, 3), np.uint8)
 _SHADE_DOUBT = 0.9  # a cell's shade in doubt keeps this much of itself a frame
 _REDUCED_WIDTH = 240  # the image used for brightness, gain and motion is about this wide
+#: Departure 33: the reference's texture is found again every this many frames; an offset
+#: is checked in the parts of a 3 x 3 grid over the reduced image holding this many of them.
+_TEXTURE_FRAMES = 25
+_EXPLAIN_GRID = 3
+_TEXTURE_MIN_PART = 30
+_TEXTURE_POINTS = 1024  # at most this many texture pixels checked
+_DIFF_LEVELS = 512  # quarter grey levels up to 128, for the parts' medians
+#: ... and only an offset of at least this many reduced pixels: a smaller one changes the
+#: frame by less than its 8-bit rounding and noise where the view is faint (a camera in the
+#: wind off by 0.1-0.2 reduced pixels differs from its reference by a median of 0-1 grey
+#: level), so the medians cannot tell; it stands
+_EXPLAIN_MIN = 0.5
 # ... but reduced by at most 4: a wind's 1.5 px at 1920x1080 is 0.19 px of a 240-px image, too
 # little for the motion fit to tell from noise (it then reads 0 and nothing is undone), and
 # 0.38 px of a 480-px one (docs/method.md, departure 7)
@@ -100,6 +112,111 @@ def _in_cells(cells: np.ndarray, cell: float, x: np.ndarray, y: np.ndarray) -> n
     ``cell`` pixels from the top left corner; points beyond the grid take its edge cell)."""
     # (the background label's centroid is NaN: it lands in cell 0, and is the caller's to drop)
     return cells.reshape(-1)[grid_cells(x, y, cell, cells.shape)]
+
+
+def texture_mask(image: np.ndarray) -> np.ndarray:
+    """(h, w) bool: the most textured quarter of ``image`` (float32, reduced), by the
+    magnitude of its Sobel gradient (departure 33)."""
+    grad = cv2.magnitude(
+        cv2.Sobel(image, cv2.CV_32F, 1, 0, ksize=3), cv2.Sobel(image, cv2.CV_32F, 0, 1, ksize=3)
+    )
+    flat = grad.reshape(-1)
+    k = (3 * flat.size) // 4
+    return grad > float(np.partition(flat, k)[k])
+
+
+@dataclass(frozen=True)
+class TexturePoints:
+    """Where an offset is checked (departure 33): up to ``_TEXTURE_POINTS`` pixels of a
+    texture mask, evenly taken, as flat indices, coordinates and grid parts."""
+
+    index: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    part: np.ndarray
+    shape: tuple[int, int]
+
+    @classmethod
+    def of(cls, mask: np.ndarray) -> TexturePoints:
+        index = np.flatnonzero(mask)
+        step = max(-(-index.size // _TEXTURE_POINTS), 1)
+        index = index[::step]
+        h, w = mask.shape
+        y, x = np.divmod(index, w)
+        g = _EXPLAIN_GRID
+        part = (y * g // h) * g + x * g // w
+        return cls(index, x.astype(np.float32), y.astype(np.float32), part, (h, w))
+
+
+def offset_explains(
+    reference: np.ndarray,
+    frame: np.ndarray,
+    dx: float,
+    dy: float,
+    points: TexturePoints,
+    exclude: np.ndarray | None,
+    tolerance: float,
+) -> bool:
+    """Whether the offset (dx, dy) of ``frame`` from ``reference`` (float32 reduced images,
+    pixels) is the camera's (departure 33, beyond the paper).
+
+    A camera that moves moves the whole view: in each part of it, the frame moved back by
+    the offset matches the reference better. The view is cut in ``_EXPLAIN_GRID`` x
+    ``_EXPLAIN_GRID`` parts; in a part with at least ``_TEXTURE_MIN_PART`` of the texture
+    ``points`` (``exclude`` nonzero left out), the offset explains the frame if the median
+    absolute difference moved back is at most ``tolerance`` times that of the frame as it
+    is. It is the camera's if it explains at least half of those parts. An offset shorter
+    than ``_EXPLAIN_MIN`` stands unchecked. Dense streaks, or a
+    large object swinging, pull a linearised fit that has little else to go by: moving the
+    frame back by what they read matches worse, or better only where the object is. Too few
+    textured parts to tell: True. The frame is moved back at the points only (bilinear, the
+    border repeated: :func:`hos.background.translate` there).
+    """
+    if math.hypot(dx, dy) < _EXPLAIN_MIN:
+        return True
+    index, x, y, part = points.index, points.x, points.y, points.part
+    if exclude is not None:
+        keep = exclude.reshape(-1)[index] == 0
+        index, x, y, part = index[keep], x[keep], y[keep], part[keep]
+    h, w = points.shape
+    flat = frame.reshape(-1)
+    ref = reference.reshape(-1)[index]
+    as_is = _part_medians(np.abs(flat[index] - ref), part)
+    moved = _part_medians(np.abs(_bilinear(flat, w, h, x + dx, y + dy) - ref), part)
+    counts = np.bincount(part, minlength=_EXPLAIN_GRID**2)
+    judged = counts >= _TEXTURE_MIN_PART
+    n = int(np.count_nonzero(judged))
+    explained = int(np.count_nonzero(judged & (moved <= tolerance * as_is)))
+    return n < 2 or 2 * explained >= n
+
+
+def _bilinear(flat: np.ndarray, w: int, h: int, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The (h, w) image ``flat`` (raveled) at points (x, y), bilinear, clamped to the image."""
+    x = np.clip(x, 0.0, w - 1.0)
+    y = np.clip(y, 0.0, h - 1.0)
+    x0 = np.minimum(x.astype(np.intp), w - 2) if w > 1 else np.zeros(x.shape, np.intp)
+    y0 = np.minimum(y.astype(np.intp), h - 2) if h > 1 else np.zeros(y.shape, np.intp)
+    fx = x - x0
+    fy = y - y0
+    i00 = y0 * w + x0
+    i01 = i00 + (1 if w > 1 else 0)
+    i10 = i00 + (w if h > 1 else 0)
+    i11 = i10 + (1 if w > 1 else 0)
+    top = flat[i00] * (1.0 - fx) + flat[i01] * fx
+    bottom = flat[i10] * (1.0 - fx) + flat[i11] * fx
+    return top * (1.0 - fy) + bottom * fy
+
+
+def _part_medians(diff: np.ndarray, part: np.ndarray) -> np.ndarray:
+    """(parts,) the (lower) median of ``diff`` (absolute differences, grey levels) in each
+    part, to a quarter of a grey level (128 and more: 128): a bincount, no sort, no loop over the
+    parts."""
+    levels = _DIFF_LEVELS
+    q = np.minimum(diff * 4.0, levels - 1).astype(np.intp)
+    hist = np.bincount(part * levels + q, minlength=_EXPLAIN_GRID**2 * levels)
+    cum = np.cumsum(hist.reshape(-1, levels), axis=1)
+    half = (cum[:, -1] + 1) // 2
+    return np.argmax(cum >= np.maximum(half, 1)[:, None], axis=1) / 4.0
 
 
 def classify_blobs(
@@ -233,6 +350,8 @@ class HosDetector:
         self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
         self._repeats = 0  # frames in a row that repeated the one before
         self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
+        # the frame before each of those steps: the first is where the sum of them starts
+        self._step_frames: deque[np.ndarray] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, the blobs' cells, their votes: orientation, uncertainty,
         # weight), newest first
         self._pool: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(
@@ -273,6 +392,8 @@ class HosDetector:
         self._gain = 1.0
         self._shade: np.ndarray | None = None  # log gain of each cell (departure 31)
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
+        self._ref_texture: TexturePoints | None = None  # its most textured quarter (dep. 33)
+        self._ref_texture_age = 0  # frames since that was found
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
         self._fg_rate: np.ndarray | None = None  # how often each reduced pixel was foreground
         self._movers: np.ndarray | None = None  # where it is often: left out of the motion fit
@@ -925,6 +1046,7 @@ class HosDetector:
         rob = self.params.robustness
         if self._ref_small is None or self._ref_small.shape != small.shape:
             self._ref_small = small.copy()
+            self._ref_texture = None
             self._fg_small = None
             return 0.0, (0.0, 0.0)
         translation = global_translation_jit if self.compiled else global_translation
@@ -947,12 +1069,35 @@ class HosDetector:
                 dx, dy = fx, fy
             if dx == 0.0 and dy == 0.0:
                 break  # nothing shorter: the other fit is not needed
+        if (dx or dy) and not self._explains(small, dx, dy):
+            dx = dy = 0.0
         # While the background model relearns the view (after a scene change: a knock, lights),
         # the reference learns as fast as the model: both must describe the same view.
         rate = _RELEARN_RATE if self._relearn > 0 else 1.0 / rob.reference_frames
         cv2.accumulateWeighted(small, self._ref_small, rate)
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
+
+    def _explains(self, small: np.ndarray, dx: float, dy: float) -> bool:
+        """Whether the camera offset (dx, dy) (reduced pixels) explains the frame against the
+        reference (departure 33; :func:`offset_explains`), what moves often in place left
+        out."""
+        tolerance = self.params.robustness.motion_explained
+        if tolerance <= 0:
+            return True
+        return offset_explains(
+            self._ref_small, small, dx, dy, self._ref_texture_points(), self._movers, tolerance
+        )
+
+    def _ref_texture_points(self) -> TexturePoints:
+        """Where an offset or a frame-to-frame step is checked (departure 33): the
+        reference's most textured quarter, the view as learnt (not the last frame's, which
+        in heavy rain is the streaks' edges), found again every ``_TEXTURE_FRAMES`` checks."""
+        if self._ref_texture is None or self._ref_texture_age >= _TEXTURE_FRAMES:
+            self._ref_texture = TexturePoints.of(texture_mask(self._ref_small))
+            self._ref_texture_age = 0
+        self._ref_texture_age += 1
+        return self._ref_texture
 
     def _pan(self, small: np.ndarray, scale: int, *, still: bool) -> float:
         """How far the camera went over its last ``_PAN_FRAMES`` frames, pixels at full
@@ -963,6 +1108,7 @@ class HosDetector:
         prev, self._prev_small = self._prev_small, small
         if still or prev is None or prev.shape != small.shape:
             self._steps.clear()
+            self._step_frames.clear()
             return 0.0
         translation = global_translation_jit if self.compiled else global_translation
         dx, dy = translation(prev, small)
@@ -970,9 +1116,22 @@ class HosDetector:
             ddx, ddy = translation(prev, translate(small, -dx, -dy))
             dx, dy = dx + ddx, dy + ddy
         self._steps.append((dx, dy))
+        self._step_frames.append(prev)
         sx = sum(d[0] for d in self._steps)
         sy = sum(d[1] for d in self._steps)
-        return math.hypot(sx, sy) * scale
+        pan = math.hypot(sx, sy) * scale
+        tolerance = self.params.robustness.motion_explained
+        if (
+            pan > self.params.robustness.motion_far_px
+            and tolerance > 0
+            and not offset_explains(
+                self._step_frames[0], small, sx, sy, self._ref_texture_points(), None, tolerance
+            )
+        ):
+            # the view did not go that far: the steps followed something large moving in
+            # it (a leaf, a swing), not the camera (departure 33)
+            return 0.0
+        return pan
 
     def _spread(self, x: np.ndarray, y: np.ndarray) -> float:
         """How spread the blobs at (x, y) are over the region of interest (beyond the paper):
