@@ -861,7 +861,9 @@ def test_dense_rain_in_a_lamps_light_is_not_structure_against_the_rate_around_it
     assert said < 0.5
 
 
-def _snow_over_plain_view(gradient: str, *, size=(480, 640), blur=1.5, frames=200):
+def _snow_over_plain_view(
+    gradient: str, *, size=(480, 640), blur=1.5, frames=200, explained: float | None = None
+):
     """Snow whose flakes persist and fall 3 px a frame (at 480 rows) from frame 60 over a still,
     nearly plain view (a random texture blurred by ``blur`` px, grey-level deviation 3), with
     sensor noise: the shares of frames 100 on that are ``unstable`` and said precipitation."""
@@ -869,7 +871,10 @@ def _snow_over_plain_view(gradient: str, *, size=(480, 640), blur=1.5, frames=20
     rng = np.random.default_rng(1)
     view = cv2.GaussianBlur(rng.uniform(60, 120, (h, w)).astype(np.float32), (0, 0), blur)
     snow = SnowParams(count=int(250 * w * h / (640 * 360)), blur_px=3.0, fall_px=3.0 * h / 480)
-    det = HosDetector(DetectorParams.from_dict({"robustness": {"motion_gradient": gradient}}))
+    robustness: dict[str, object] = {"motion_gradient": gradient}
+    if explained is not None:
+        robustness["motion_explained"] = explained
+    det = HosDetector(DetectorParams.from_dict({"robustness": robustness}))
     unstable, said = [], []
     for i in range(frames):
         f = np.clip(view + rng.normal(0, 1.0, (h, w)), 0, 255).astype(np.uint8)
@@ -889,9 +894,20 @@ def test_falling_snow_over_a_plain_view_is_not_camera_motion(gradient):
     the reference's gradients sees only the view's texture, and the still camera is judged
     and says snow (``"shorter"``, the default, keeps that fit's offset). On the gradients of
     the mean of the reference and the frame alone (``"mean"``, as before) the flakes' fall was
-    read as a camera being re-aimed: ``unstable`` on every frame."""
-    unstable, said = _snow_over_plain_view(gradient)
+    read as a camera being re-aimed: ``unstable`` on every frame, unless the offset is checked
+    against the frame (departure 33, ``robustness.motion_explained``; off here, to show the
+    fit alone)."""
+    unstable, said = _snow_over_plain_view(gradient, explained=0.0)
     if gradient == "mean":
         assert unstable > 0.9 and said < 0.1
     else:
         assert unstable < 0.05 and said > 0.9
+
+
+@pytest.mark.parametrize("gradient", ["shorter", "mean"])
+def test_falling_snow_pulls_no_offset_past_the_check(gradient):
+    """Departure 33: the flakes' fall read by either fit does not explain the frame (moved
+    back by it, the still view matches worse), so the still camera is judged and says snow
+    with either fit."""
+    unstable, said = _snow_over_plain_view(gradient)
+    assert unstable < 0.05 and said > 0.9
