@@ -166,11 +166,11 @@ def offset_explains(
     ``points`` (``exclude`` nonzero left out), the offset explains the frame if the median
     absolute difference moved back is at most ``tolerance`` times that of the frame as it
     is. It is the camera's if it explains at least half of those parts. An offset shorter
-    than ``_EXPLAIN_MIN`` stands unchecked. Dense streaks, or a
-    large object swinging, pull a linearised fit that has little else to go by: moving the
-    frame back by what they read matches worse, or better only where the object is. Too few
-    textured parts to tell: True. The frame is moved back at the points only (bilinear, the
-    border repeated: :func:`hos.background.translate` there).
+    than ``_EXPLAIN_MIN`` stands unchecked. Dense streaks, or a large object swinging, pull a
+    linearised fit that has little else to go by: moving the frame back by what they read
+    matches worse, or better only where the object is. Too few textured parts to tell: True.
+    The frame is moved back at the points only (bilinear, the border repeated:
+    :func:`hos.background.translate` there).
     """
     if math.hypot(dx, dy) < _EXPLAIN_MIN:
         return True
@@ -209,8 +209,8 @@ def _bilinear(flat: np.ndarray, w: int, h: int, x: np.ndarray, y: np.ndarray) ->
 
 def _part_medians(diff: np.ndarray, part: np.ndarray) -> np.ndarray:
     """(parts,) the (lower) median of ``diff`` (absolute differences, grey levels) in each
-    part, to a quarter of a grey level (128 and more: 128): a bincount, no sort, no loop over the
-    parts."""
+    part, to a quarter of a grey level (128 and more: 128): a bincount, no sort, no loop over
+    the parts."""
     levels = _DIFF_LEVELS
     q = np.minimum(diff * 4.0, levels - 1).astype(np.intp)
     hist = np.bincount(part * levels + q, minlength=_EXPLAIN_GRID**2 * levels)
@@ -349,9 +349,8 @@ class HosDetector:
         # the last frames analysed, newest first: for blobs copied from them (stale_level)
         self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
         self._repeats = 0  # frames in a row that repeated the one before
-        self._steps: deque[tuple[float, float]] = deque(maxlen=_PAN_FRAMES)
-        # the frame before each of those steps: the first is where the sum of them starts
-        self._step_frames: deque[np.ndarray] = deque(maxlen=_PAN_FRAMES)
+        # the last frame-to-frame steps (dx, dy) and the frame each started from
+        self._steps: deque[tuple[float, float, np.ndarray]] = deque(maxlen=_PAN_FRAMES)
         # the last frames' (HOS, the blobs' cells, their votes: orientation, uncertainty,
         # weight), newest first
         self._pool: deque[tuple[np.ndarray, np.ndarray, np.ndarray]] = deque(
@@ -1069,7 +1068,7 @@ class HosDetector:
                 dx, dy = fx, fy
             if dx == 0.0 and dy == 0.0:
                 break  # nothing shorter: the other fit is not needed
-        if (dx or dy) and not self._explains(small, dx, dy):
+        if (dx or dy) and not self._explains(self._ref_small, small, dx, dy, self._movers):
             dx = dy = 0.0
         # While the background model relearns the view (after a scene change: a knock, lights),
         # the reference learns as fast as the model: both must describe the same view.
@@ -1078,15 +1077,22 @@ class HosDetector:
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
 
-    def _explains(self, small: np.ndarray, dx: float, dy: float) -> bool:
-        """Whether the camera offset (dx, dy) (reduced pixels) explains the frame against the
-        reference (departure 33; :func:`offset_explains`), what moves often in place left
-        out."""
+    def _explains(
+        self,
+        before: np.ndarray,
+        small: np.ndarray,
+        dx: float,
+        dy: float,
+        exclude: np.ndarray | None,
+    ) -> bool:
+        """Whether the offset (dx, dy) (reduced pixels) of ``small`` from ``before`` explains
+        it, on the reference's texture (departure 33; :func:`offset_explains`); True when
+        ``robustness.motion_explained`` is 0."""
         tolerance = self.params.robustness.motion_explained
         if tolerance <= 0:
             return True
         return offset_explains(
-            self._ref_small, small, dx, dy, self._ref_texture_points(), self._movers, tolerance
+            before, small, dx, dy, self._ref_texture_points(), exclude, tolerance
         )
 
     def _ref_texture_points(self) -> TexturePoints:
@@ -1108,25 +1114,19 @@ class HosDetector:
         prev, self._prev_small = self._prev_small, small
         if still or prev is None or prev.shape != small.shape:
             self._steps.clear()
-            self._step_frames.clear()
             return 0.0
         translation = global_translation_jit if self.compiled else global_translation
         dx, dy = translation(prev, small)
         if math.hypot(dx, dy) > 0.5:
             ddx, ddy = translation(prev, translate(small, -dx, -dy))
             dx, dy = dx + ddx, dy + ddy
-        self._steps.append((dx, dy))
-        self._step_frames.append(prev)
+        self._steps.append((dx, dy, prev))
         sx = sum(d[0] for d in self._steps)
         sy = sum(d[1] for d in self._steps)
         pan = math.hypot(sx, sy) * scale
-        tolerance = self.params.robustness.motion_explained
-        if (
-            pan > self.params.robustness.motion_far_px
-            and tolerance > 0
-            and not offset_explains(
-                self._step_frames[0], small, sx, sy, self._ref_texture_points(), None, tolerance
-            )
+        # the sum is checked against the frame the oldest step started from
+        if pan > self.params.robustness.motion_far_px and not self._explains(
+            self._steps[0][2], small, sx, sy, None
         ):
             # the view did not go that far: the steps followed something large moving in
             # it (a leaf, a swing), not the camera (departure 33)
