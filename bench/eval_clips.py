@@ -9,7 +9,9 @@ repository: point this at your own (the shared fixtures' clear clips work too). 
 decoded as ``weatherd`` decodes it (PyAV) and given to the detector frame by frame at its own
 frame rate; the first 90 frames (the warm-up and the first dwell) are not counted. "judged" is
 the share of the counted frames whose ``state`` is ok; "rain" is the share of the judged frames
-said rain; "episodes" counts the runs of rain and "longest" the longest, in frames. "Pi~ p99"
+said rain; "episodes" counts the runs of rain and "longest" the longest, in frames; "typed"
+is the camera's precipitation type on the frames said rain (``precipitation_type``: on a real
+rain clip, every frame typed snow is a wrong answer a road operator would act on). "Pi~ p99"
 and "Pi~ max" are the 99th percentile and the highest of the smoothed Pi over the judged
 frames: on a dry clip, how near the decision's threshold (``decision.pi_rain``, 0.35) it came
 even where it said no rain (``make eval`` prints the same for the benchmark's clear frames).
@@ -114,6 +116,8 @@ class ClipResult:
     frames: int = 0
     states: Counter = field(default_factory=Counter)
     rain: int = 0
+    #: the camera's precipitation type on the judged frames said rain
+    types: Counter = field(default_factory=Counter)
     episodes: int = 0
     longest: int = 0
     #: per part of the clip (``--parts``): [judged, said rain] frames
@@ -201,6 +205,8 @@ def evaluate(
                 judged = r.state == State.OK
                 said = bool(r.rain) and judged
                 res.rain += said
+                if said:
+                    res.types[str(r.precipitation_type)] += 1
                 if judged:
                     res.pi_smoothed.append(float(r.pi_smoothed))
                 run = run + 1 if said else 0
@@ -234,6 +240,7 @@ HEADER = [
     "rain %",
     "episodes",
     "longest",
+    "typed",
     "Pi~ p99",
     "Pi~ max",
     "states",
@@ -253,6 +260,7 @@ def row(r: ClipResult) -> list[str]:
         rain,
         str(r.episodes),
         str(r.longest),
+        ", ".join(f"{k} {v}" for k, v in sorted(r.types.items())) or "-",
         f"{np.percentile(r.pi_smoothed, 99):.2f}" if r.pi_smoothed else "-",
         f"{max(r.pi_smoothed):.2f}" if r.pi_smoothed else "-",
         states or f"shorter than the {SETTLE}-frame warm-up",

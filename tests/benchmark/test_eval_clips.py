@@ -40,13 +40,16 @@ def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys
     assert r.counted == 200 - clips.SETTLE and r.judged == r.counted
     assert 60 <= r.rain <= 80  # the rain's 80 frames, less the detector's latency
     assert r.episodes == 1 and r.longest == r.rain
+    # every frame said rain has a type, and streaks drawn anew every frame are never snow
+    assert sum(r.types.values()) == r.rain and r.types["snow"] == 0 and r.types["rain"] > 0
     # one smoothed Pi per judged frame: over the threshold in the rain
     assert len(r.pi_smoothed) == r.judged and max(r.pi_smoothed) > 0.35
 
     assert clips.main([str(path), str(bad), "--markdown"]) == 1  # one clip could not be read
     out, err = capsys.readouterr()
     assert out.startswith("| clip | size |") and "| street.avi | 320x240 | 25.0 | 200 |" in out
-    assert "| Pi~ p99 | Pi~ max |" in out
+    assert "| longest | typed | Pi~ p99 | Pi~ max |" in out
+    assert f"| rain {r.types['rain']}" in out
     assert "notes.txt: cannot be read as a video" in err
 
 
