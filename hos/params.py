@@ -398,6 +398,11 @@ class RobustnessParams:
     #: Fraction of recent frames that moved above which the camera is declared ``unstable``.
     motion_unstable_fraction: float = 0.3
     motion_window_frames: int = 25
+    #: Beyond the paper: frames after the camera was last off its place by more than
+    #: ``motion_frame_px`` (or unstable) that are judged but carry no evidence either way
+    #: (held): a camera drifting back and forth across the limit leaves the edges of its view
+    #: half-learnt in the frames between (docs/method.md, departure 34). 0: none.
+    settle_frames: int = 10
     #: Exposure compensation: a global gain change larger than this is undone before the
     #: background model sees it. 1 % of a mid-grey scene is under eq. 8's c; at 3 % an
     #: exposure ramp (auto-exposure easing over a second) kept the frame up to 3 % off the
@@ -506,6 +511,7 @@ class RobustnessParams:
         _check(self.rest_frames >= 0, "rest_frames", "must be >= 0")
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
+        _check(self.settle_frames >= 0, "settle_frames", "must be >= 0")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")
         _check(self.shade_cells >= 0, "shade_cells", "must be >= 0")
         _check(self.shade_coherence > 0, "shade_coherence", "must be > 0")

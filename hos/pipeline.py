@@ -345,6 +345,7 @@ class HosDetector:
         self._local_map: np.ndarray | None = None
         self._moving = 0.0  # fraction of recent frames with the camera off its position
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
+        self._settling = 0  # frames left to hold after the camera was last moved
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
         # the last frames analysed, newest first: for blobs copied from them (stale_level)
         self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
@@ -625,6 +626,7 @@ class HosDetector:
             self._photometric = PhotometricRule(p.segmentation, compiled=self.compiled)
             self._moving = 0.0
             self._shaken = 0
+            self._settling = 0
         elif relearning and not self._relearning:
             # The view changed as a whole (a knock, lights): what recurred in place and where
             # the traffic went are the old view's; both are learnt again, as after the warm-up.
@@ -664,6 +666,14 @@ class HosDetector:
         ):
             state = State.UNSTABLE
         hold = state in (State.WARMING_UP, State.SCENE_CHANGE) or moved
+        # Beyond the paper (departure 34): the first frames after the camera was off its place
+        # are judged but held; the edges it moved are half-learnt there, and vote as one
+        # orientation repeated.
+        if moved or state == State.UNSTABLE:
+            self._settling = rob.settle_frames
+        elif self._settling > 0:
+            self._settling -= 1
+            hold = True
 
         # 2b. candidate pixels
         if p.segmentation.method == "mog":
