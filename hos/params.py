@@ -398,6 +398,11 @@ class RobustnessParams:
     #: Fraction of recent frames that moved above which the camera is declared ``unstable``.
     motion_unstable_fraction: float = 0.3
     motion_window_frames: int = 25
+    #: Beyond the paper: the camera's offset is also fitted on an image this many times smaller
+    #: than the reduced one, and refined from there when that finds a longer shift than the
+    #: linearised fit reaches (a knock of several pixels; docs/method.md, departure 35). 1 or
+    #: 0: never.
+    motion_coarse: int = 4
     #: Beyond the paper: frames after the camera was last off its place by more than
     #: ``motion_frame_px`` (or unstable) that are judged but carry no evidence either way
     #: (held): a camera drifting back and forth across the limit leaves the edges of its view
@@ -512,6 +517,7 @@ class RobustnessParams:
         _check(0 < self.motion_unstable_fraction <= 1, "motion_unstable_fraction", "in (0, 1]")
         _check(self.motion_window_frames >= 1, "motion_window_frames", "must be >= 1")
         _check(self.settle_frames >= 0, "settle_frames", "must be >= 0")
+        _check(self.motion_coarse >= 0, "motion_coarse", "must be >= 0")
         _check(self.gain_tolerance > 0, "gain_tolerance", "must be > 0")
         _check(self.shade_cells >= 0, "shade_cells", "must be >= 0")
         _check(self.shade_coherence > 0, "shade_coherence", "must be > 0")

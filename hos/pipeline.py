@@ -99,6 +99,13 @@ _EXPLAIN_MIN = 0.5
 # little for the motion fit to tell from noise (it then reads 0 and nothing is undone), and
 # 0.38 px of a 480-px one (docs/method.md, departure 7)
 _MAX_SCALE = 4
+#: An offset the coarse fit finds (departure 35) is taken when longer than this, in reduced
+#: pixels, and than the reduced fit's by a pixel: the linearised fit reads shifts up to about
+#: two pixels well, and under-reads longer ones.
+_COARSE_REACH = 2.0
+#: ... and when it leaves at most this share of the reduced fit's mismatch with the
+#: reference (:func:`offset_mismatch`): an 8 px knock read as 2 px leaves edges 6 px apart.
+_COARSE_BETTER = 0.7
 #: Learning rate of the background model, and of the motion reference, while they relearn the
 #: view after a scene change or a knock (about 20 frames' memory).
 _RELEARN_RATE = 0.05
@@ -188,6 +195,28 @@ def offset_explains(
     n = int(np.count_nonzero(judged))
     explained = int(np.count_nonzero(judged & (moved <= tolerance * as_is)))
     return n < 2 or 2 * explained >= n
+
+
+def offset_mismatch(
+    reference: np.ndarray,
+    frame: np.ndarray,
+    dx: float,
+    dy: float,
+    points: TexturePoints,
+    exclude: np.ndarray | None,
+) -> float:
+    """The median absolute difference between ``reference`` and ``frame`` moved back by the
+    offset (dx, dy), pixels, at the texture ``points`` (``exclude`` nonzero left out), grey
+    levels: how well the offset explains the frame as a whole (departure 35)."""
+    index, x, y = points.index, points.x, points.y
+    if exclude is not None:
+        keep = exclude.reshape(-1)[index] == 0
+        index, x, y = index[keep], x[keep], y[keep]
+    if index.size == 0:
+        return math.inf
+    h, w = points.shape
+    moved = _bilinear(frame.reshape(-1), w, h, x + dx, y + dy)
+    return float(np.median(np.abs(moved - reference.reshape(-1)[index])))
 
 
 def _bilinear(flat: np.ndarray, w: int, h: int, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -1068,12 +1097,31 @@ class HosDetector:
         # has: flakes falling together over a plain view; the template magnifies texture the
         # reference holds only faintly); neither shrinks a real offset.
         dx = dy = math.inf
+        coarse = self._coarse_pair(small, exclude) if rob.motion_coarse > 1 else None
         for gradient in _MOTION_FITS[rob.motion_gradient]:
             fx, fy = translation(self._ref_small, small, exclude=exclude, gradient=gradient)
             if math.hypot(fx, fy) > 0.5:
                 back = translate(small, -fx, -fy)
                 ddx, ddy = translation(self._ref_small, back, exclude=exclude, gradient=gradient)
                 fx, fy = fx + ddx, fy + ddy
+            if coarse is not None:
+                # Departure 35: an offset beyond the fit's reach (a knock of several pixels,
+                # the fit under-reading it) is found on a coarser image, then refined here.
+                cx, cy = self._coarse_offset(coarse, gradient, translation)
+                if math.hypot(cx, cy) > max(_COARSE_REACH, math.hypot(fx, fy) + 1.0):
+                    back = translate(small, -cx, -cy)
+                    ddx, ddy = translation(
+                        self._ref_small, back, exclude=exclude, gradient=gradient
+                    )
+                    # taken only where it matches the reference clearly better than the
+                    # fit that did not reach it
+                    points = self._ref_texture_points()
+                    far = offset_mismatch(
+                        self._ref_small, small, cx + ddx, cy + ddy, points, exclude
+                    )
+                    near = offset_mismatch(self._ref_small, small, fx, fy, points, exclude)
+                    if far < _COARSE_BETTER * near:
+                        fx, fy = cx + ddx, cy + ddy
             if math.hypot(fx, fy) < math.hypot(dx, dy):
                 dx, dy = fx, fy
             if dx == 0.0 and dy == 0.0:
@@ -1086,6 +1134,36 @@ class HosDetector:
         cv2.accumulateWeighted(small, self._ref_small, rate)
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
+
+    def _coarse_pair(
+        self, small: np.ndarray, exclude: np.ndarray | None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
+        """The reference, ``small`` and ``exclude`` reduced ``robustness.motion_coarse`` times
+        more (area means; a coarse pixel is excluded when any of its pixels is), and the
+        factor (departure 35)."""
+        k = self.params.robustness.motion_coarse
+        h, w = small.shape
+        size = (max(w // k, 16), max(h // k, 16))
+        ref = cv2.resize(self._ref_small, size, interpolation=cv2.INTER_AREA)
+        cur = cv2.resize(small, size, interpolation=cv2.INTER_AREA)
+        mask = None
+        if exclude is not None:
+            mask = cv2.resize(
+                np.asarray(exclude).view(np.uint8), size, interpolation=cv2.INTER_AREA
+            )
+        return ref, cur, mask, w / size[0]
+
+    @staticmethod
+    def _coarse_offset(coarse, gradient: str, translation) -> tuple[float, float]:
+        """The offset fitted on the coarse images of :meth:`_coarse_pair`, refined once as at
+        the reduced size, in reduced pixels."""
+        ref, cur, mask, k = coarse
+        fx, fy = translation(ref, cur, exclude=mask, gradient=gradient)
+        if math.hypot(fx, fy) > 0.5:
+            back = translate(cur, -fx, -fy)
+            ddx, ddy = translation(ref, back, exclude=mask, gradient=gradient)
+            fx, fy = fx + ddx, fy + ddy
+        return fx * k, fy * k
 
     def _explains(
         self,
