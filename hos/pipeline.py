@@ -1137,10 +1137,10 @@ class HosDetector:
 
     def _coarse_pair(
         self, small: np.ndarray, exclude: np.ndarray | None
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, int]:
-        """The reference, ``small`` and ``exclude`` reduced ``robustness.motion_coarse`` times
-        more (area means; a coarse pixel is excluded when any of its pixels is), and the
-        factor (departure 35)."""
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, float, float]:
+        """The reference, ``small`` and ``exclude`` shrunk ``robustness.motion_coarse`` times
+        more (area means; a coarse pixel is left out when more than half of its pixels are),
+        and the factors from coarse to reduced pixels, across and down (departure 35)."""
         k = self.params.robustness.motion_coarse
         h, w = small.shape
         size = (max(w // k, 16), max(h // k, 16))
@@ -1148,22 +1148,23 @@ class HosDetector:
         cur = cv2.resize(small, size, interpolation=cv2.INTER_AREA)
         mask = None
         if exclude is not None:
-            mask = cv2.resize(
-                np.asarray(exclude).view(np.uint8), size, interpolation=cv2.INTER_AREA
+            share = cv2.resize(
+                np.asarray(exclude, dtype=np.float32), size, interpolation=cv2.INTER_AREA
             )
-        return ref, cur, mask, w / size[0]
+            mask = (share > 0.5).view(np.uint8)
+        return ref, cur, mask, w / size[0], h / size[1]
 
     @staticmethod
     def _coarse_offset(coarse, gradient: str, translation) -> tuple[float, float]:
         """The offset fitted on the coarse images of :meth:`_coarse_pair`, refined once as at
         the reduced size, in reduced pixels."""
-        ref, cur, mask, k = coarse
+        ref, cur, mask, kx, ky = coarse
         fx, fy = translation(ref, cur, exclude=mask, gradient=gradient)
         if math.hypot(fx, fy) > 0.5:
             back = translate(cur, -fx, -fy)
             ddx, ddy = translation(ref, back, exclude=mask, gradient=gradient)
             fx, fy = fx + ddx, fy + ddy
-        return fx * k, fy * k
+        return fx * kx, fy * ky
 
     def _explains(
         self,
