@@ -154,6 +154,15 @@ class TexturePoints:
         part = (y * g // h) * g + x * g // w
         return cls(index, x.astype(np.float32), y.astype(np.float32), part, (h, w))
 
+    def kept(self, exclude: np.ndarray | None) -> TexturePoints:
+        """These points less those where ``exclude`` (the image's shape) is nonzero."""
+        if exclude is None:
+            return self
+        keep = exclude.reshape(-1)[self.index] == 0
+        return TexturePoints(
+            self.index[keep], self.x[keep], self.y[keep], self.part[keep], self.shape
+        )
+
 
 def offset_explains(
     reference: np.ndarray,
@@ -181,10 +190,8 @@ def offset_explains(
     """
     if math.hypot(dx, dy) < _EXPLAIN_MIN:
         return True
+    points = points.kept(exclude)
     index, x, y, part = points.index, points.x, points.y, points.part
-    if exclude is not None:
-        keep = exclude.reshape(-1)[index] == 0
-        index, x, y, part = index[keep], x[keep], y[keep], part[keep]
     h, w = points.shape
     flat = frame.reshape(-1)
     ref = reference.reshape(-1)[index]
@@ -208,15 +215,25 @@ def offset_mismatch(
     """The median absolute difference between ``reference`` and ``frame`` moved back by the
     offset (dx, dy), pixels, at the texture ``points`` (``exclude`` nonzero left out), grey
     levels: how well the offset explains the frame as a whole (departure 35)."""
-    index, x, y = points.index, points.x, points.y
-    if exclude is not None:
-        keep = exclude.reshape(-1)[index] == 0
-        index, x, y = index[keep], x[keep], y[keep]
-    if index.size == 0:
+    points = points.kept(exclude)
+    if points.index.size == 0:
         return math.inf
     h, w = points.shape
-    moved = _bilinear(frame.reshape(-1), w, h, x + dx, y + dy)
-    return float(np.median(np.abs(moved - reference.reshape(-1)[index])))
+    moved = _bilinear(frame.reshape(-1), w, h, points.x + dx, points.y + dy)
+    return float(np.median(np.abs(moved - reference.reshape(-1)[points.index])))
+
+
+def _refined_fit(
+    translation, reference: np.ndarray, frame: np.ndarray, exclude, gradient: str
+) -> tuple[float, float]:
+    """``translation``'s offset of ``frame`` from ``reference``, refined once from the frame
+    moved back by it when it is over half a pixel (the linearised fit under-reads a shift)."""
+    fx, fy = translation(reference, frame, exclude=exclude, gradient=gradient)
+    if math.hypot(fx, fy) > 0.5:
+        back = translate(frame, -fx, -fy)
+        ddx, ddy = translation(reference, back, exclude=exclude, gradient=gradient)
+        fx, fy = fx + ddx, fy + ddy
+    return fx, fy
 
 
 def _bilinear(flat: np.ndarray, w: int, h: int, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -1099,11 +1116,7 @@ class HosDetector:
         dx = dy = math.inf
         coarse = self._coarse_pair(small, exclude) if rob.motion_coarse > 1 else None
         for gradient in _MOTION_FITS[rob.motion_gradient]:
-            fx, fy = translation(self._ref_small, small, exclude=exclude, gradient=gradient)
-            if math.hypot(fx, fy) > 0.5:
-                back = translate(small, -fx, -fy)
-                ddx, ddy = translation(self._ref_small, back, exclude=exclude, gradient=gradient)
-                fx, fy = fx + ddx, fy + ddy
+            fx, fy = _refined_fit(translation, self._ref_small, small, exclude, gradient)
             if coarse is not None:
                 # Departure 35: an offset beyond the fit's reach (a knock of several pixels,
                 # the fit under-reading it) is found on a coarser image, then refined here.
@@ -1115,11 +1128,9 @@ class HosDetector:
                     )
                     # taken only where it matches the reference clearly better than the
                     # fit that did not reach it
-                    points = self._ref_texture_points()
-                    far = offset_mismatch(
-                        self._ref_small, small, cx + ddx, cy + ddy, points, exclude
-                    )
-                    near = offset_mismatch(self._ref_small, small, fx, fy, points, exclude)
+                    points = self._ref_texture_points().kept(exclude)
+                    far = offset_mismatch(self._ref_small, small, cx + ddx, cy + ddy, points, None)
+                    near = offset_mismatch(self._ref_small, small, fx, fy, points, None)
                     if far < _COARSE_BETTER * near:
                         fx, fy = cx + ddx, cy + ddy
             if math.hypot(fx, fy) < math.hypot(dx, dy):
@@ -1159,11 +1170,7 @@ class HosDetector:
         """The offset fitted on the coarse images of :meth:`_coarse_pair`, refined once as at
         the reduced size, in reduced pixels."""
         ref, cur, mask, kx, ky = coarse
-        fx, fy = translation(ref, cur, exclude=mask, gradient=gradient)
-        if math.hypot(fx, fy) > 0.5:
-            back = translate(cur, -fx, -fy)
-            ddx, ddy = translation(ref, back, exclude=mask, gradient=gradient)
-            fx, fy = fx + ddx, fy + ddy
+        fx, fy = _refined_fit(translation, ref, cur, mask, gradient)
         return fx * kx, fy * ky
 
     def _explains(
