@@ -25,7 +25,14 @@ import numpy as np
 from ._numba import ENABLED, _njit, why_disabled
 from .moments import _PIXEL_VAR
 
-__all__ = ["ENABLED", "label_sparse", "photometric_candidates", "warm_up", "why_disabled"]
+__all__ = [
+    "ENABLED",
+    "grown_along_lines",
+    "label_sparse",
+    "photometric_candidates",
+    "warm_up",
+    "why_disabled",
+]
 
 
 @_njit
@@ -78,6 +85,88 @@ def photometric_candidates(
         gray.reshape(-1), fg.reshape(-1), background.reshape(-1), int(c), out
     )
     return out[:n].copy(), int(n_fg)
+
+
+@_njit
+def _grown_along_lines(index, diff, limit, offsets, c, h, w, out):  # pragma: no cover - compiled
+    # state: 0 untested, 1 candidate or joined, 2 tested and refused
+    state = np.zeros(h * w, np.uint8)
+    stack = np.empty(h * w, np.intp)
+    top = 0
+    n = 0
+    for k in range(index.size):
+        state[index[k]] = 1
+        stack[top] = index[k]
+        top += 1
+        out[n] = index[k]
+        n += 1
+    n_lines = offsets.shape[0]
+    length = offsets.shape[1]
+    while top > 0:
+        top -= 1
+        p = stack[top]
+        py = p // w
+        px = p - py * w
+        for ny in range(max(py - 1, 0), min(py + 2, h)):
+            for nx in range(max(px - 1, 0), min(px + 2, w)):
+                q = ny * w + nx
+                if state[q] != 0:
+                    continue
+                if diff[q] < c:
+                    state[q] = 2
+                    continue
+                best = -1 << 30
+                for i in range(n_lines):
+                    total = 0
+                    for j in range(length):
+                        y = min(max(ny + offsets[i, j, 0], 0), h - 1)
+                        x = min(max(nx + offsets[i, j, 1], 0), w - 1)
+                        total += diff[y * w + x]
+                    best = max(best, total)
+                if best >= limit[q]:
+                    state[q] = 1
+                    stack[top] = q
+                    top += 1
+                    out[n] = q
+                    n += 1
+                else:
+                    state[q] = 2
+    return n
+
+
+def grown_along_lines(
+    index: np.ndarray, diff: np.ndarray, limit: np.ndarray, offsets: np.ndarray, *, c: int
+) -> np.ndarray:
+    """The candidates and the pixels that complete them along a line; see
+    ``hos.background.grown_along_lines``. A search from the candidates outwards: only the
+    pixels next to a candidate or to a pixel joined are tested, so a frame pays for its
+    candidates' surroundings, not for its size.
+
+    Parameters
+    ----------
+    index : (N,) intp, the candidates' flat indices
+    diff : (H, W) int16, the frame minus the background
+    limit : (H, W) float32, what a line's sum must reach (``hos.background.line_limit``)
+    offsets : (orientations, length, 2) int32 (dy, dx) (``hos.background.line_offsets``)
+    c : what ``diff`` must be at a pixel joined
+
+    Returns
+    -------
+    (M,) intp ascending flat indices, ``index`` among them.
+    """
+    h, w = diff.shape
+    out = np.empty(h * w, np.intp)
+    n = _grown_along_lines(
+        np.ascontiguousarray(index, np.intp),
+        np.ascontiguousarray(diff, np.int16).reshape(-1),
+        np.ascontiguousarray(limit, np.float32).reshape(-1),
+        np.ascontiguousarray(offsets, np.int32),
+        int(c),
+        h,
+        w,
+        out,
+    )
+    return np.sort(out[:n])
 
 
 @_njit
@@ -262,6 +351,9 @@ def warm_up() -> float:
     index, _ = photometric_candidates(gray, fg, gray // 2, c=3)
     label_sparse(index, shape, np.zeros(gray.size, np.float32), min_area=4.0, max_area=50.0)
     label_sparse(index, shape, None, min_area=4.0, max_area=50.0)
+    diff = gray.astype(np.int16) - 128
+    lines = np.zeros((2, 3, 2), np.int32)
+    grown_along_lines(index, diff, np.full(shape, 9.0, np.float32), lines, c=3)
     theta = np.arange(180) * (np.pi / 180)
     fit_mixture_jit(1.0 + 10.0 * np.exp(-0.5 * ((theta - 1.2) / 0.1) ** 2))
     small = rng.random(shape, dtype=np.float32) * 255

@@ -15,6 +15,8 @@ a few percent of the image at most, which is all the later steps read.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
 
@@ -27,6 +29,9 @@ __all__ = [
     "PhotometricRule",
     "create_mog2",
     "frame_difference_rule",
+    "grown_along_lines",
+    "line_limit",
+    "line_offsets",
     "mask_to_index",
     "photometric_rule",
 ]
@@ -128,6 +133,81 @@ def neighbourhood_background(background: np.ndarray) -> np.ndarray:
     return cv2.dilate(background, _SQUARE3)
 
 
+def line_offsets(length: int, orientations: int) -> np.ndarray:
+    """(orientations, length, 2) int32 (dy, dx): the pixels of a line of ``length`` pixels
+    (odd: rounded up) through (0, 0) at each of ``orientations`` evenly spaced orientations
+    in [0, 180) degrees. One pixel per step along the line's major axis, so that every line
+    has ``length`` distinct pixels, symmetric about its centre."""
+    half = length // 2
+    steps = np.arange(-half, half + 1)
+    out = np.empty((orientations, steps.size, 2), np.int32)
+    for i in range(orientations):  # a handful of orientations, once per detector
+        theta = math.pi * i / orientations
+        c, s = math.cos(theta), math.sin(theta)
+        if abs(c) >= abs(s):  # mostly across: one pixel a column
+            dx, dy = steps, np.round(steps * (s / c))
+        else:  # mostly down: one pixel a row
+            dx, dy = np.round(steps * (c / s)), steps
+        out[i, :, 0] = dy
+        out[i, :, 1] = dx
+    return out
+
+
+def line_limit(diff: np.ndarray, *, c: float, k: float, length: int, window: int) -> np.ndarray:
+    """(H, W) float32: what the sum of ``diff`` along a line of ``length`` pixels must reach
+    at each pixel (departure 36): ``length * max(c, k * noise / sqrt(length))``, the noise
+    being the local standard deviation of ``diff``, its mean absolute value over ``window``
+    pixels square times sqrt(pi / 2) (exact for Gaussian noise; a streak or an edge in the
+    window raises it, which only makes the test stricter there)."""
+    noise = cv2.blur(np.abs(diff).astype(np.float32), (window, window))
+    limit = noise * np.float32(k * math.sqrt(math.pi / 2.0) / math.sqrt(length))
+    np.maximum(limit, np.float32(c), out=limit)
+    limit *= np.float32(length)
+    return limit
+
+
+def _line_kernels(offsets: np.ndarray) -> list[np.ndarray]:
+    half = int(np.abs(offsets).max())
+    kernels = []
+    for lines in offsets:
+        kernel = np.zeros((2 * half + 1, 2 * half + 1), np.float32)
+        kernel[lines[:, 0] + half, lines[:, 1] + half] = 1.0
+        kernels.append(kernel)
+    return kernels
+
+
+def grown_along_lines(
+    index: np.ndarray, diff: np.ndarray, limit: np.ndarray, offsets: np.ndarray, *, c: int
+) -> np.ndarray:
+    """The candidates ``index`` and the pixels that complete them along a line (departure 36;
+    the reference of ``hos._jit.grown_along_lines``).
+
+    A pixel is added when ``diff`` (the frame minus the background, int16) is at least ``c``
+    there, when its sum along one of the lines of ``offsets`` through it (:func:`line_offsets`;
+    the border repeated) reaches ``limit`` (:func:`line_limit`), and when it is connected
+    (8-neighbours) to a candidate through such pixels.
+
+    Returns (N,) intp ascending flat indices.
+    """
+    h, w = diff.shape
+    d = diff.astype(np.float32)
+    best = None
+    for kernel in _line_kernels(offsets):
+        # integer sums of at most a few thousand: exact in float32
+        total = cv2.filter2D(d, -1, kernel, borderType=cv2.BORDER_REPLICATE)
+        best = total if best is None else np.maximum(best, total, out=best)
+    seed = np.zeros(h * w, np.uint8)
+    seed[index] = 1
+    seed = seed.reshape(h, w)
+    joins = (diff >= c) & (best >= limit)
+    _, labels = cv2.connectedComponents((joins | (seed > 0)).view(np.uint8), connectivity=8)
+    labels = labels.reshape(-1)
+    kept = np.zeros(int(labels.max()) + 1, bool)
+    kept[labels[index]] = True
+    kept[0] = False
+    return np.flatnonzero(kept[labels])
+
+
 class PhotometricRule:
     """Eq. 8 against a running background: ``candidates(gray, fg) -> candidate pixels``.
 
@@ -146,6 +226,7 @@ class PhotometricRule:
         self._background: np.ndarray | None = None  # float32 running background
         self._background_u8: np.ndarray | None = None
         self._band = 0
+        self._lines: np.ndarray | None = None  # line_offsets of departure 36
 
     @property
     def background(self) -> np.ndarray | None:
@@ -200,6 +281,16 @@ class PhotometricRule:
             index, _ = _jit.photometric_candidates(gray, fg, reference, c=c)
         else:
             index = mask_to_index(photometric_rule(gray, reference, fg, c=c))
+        p = self.params
+        if p.line_length > 0 and index.size:
+            # departure 36: the streaks' pixels under MOG2's threshold, integrated along them
+            if self._lines is None:
+                self._lines = line_offsets(p.line_length, p.line_orientations)
+            diff = cv2.subtract(gray, reference, dtype=cv2.CV_16S)
+            length = self._lines.shape[1]
+            limit = line_limit(diff, c=c, k=p.line_k, length=length, window=p.line_window)
+            grow = _jit.grown_along_lines if self._compiled else grown_along_lines
+            index = grow(index, diff, limit, self._lines, c=c)
         self._update_background(gray, fg, rate)
         return index
 
