@@ -89,22 +89,20 @@ def photometric_candidates(
 
 @_njit
 def _grown_along_lines(index, diff, limit, offsets, c, h, w, out):  # pragma: no cover - compiled
-    # state: 0 untested, 1 candidate or joined, 2 tested and refused
+    # state: 0 untested, 1 candidate or joined, 2 tested and refused. ``out`` is the queue:
+    # the pixels from ``head`` to ``n`` are found and their neighbours not yet tested.
     state = np.zeros(h * w, np.uint8)
-    stack = np.empty(h * w, np.intp)
-    top = 0
     n = 0
     for k in range(index.size):
         state[index[k]] = 1
-        stack[top] = index[k]
-        top += 1
         out[n] = index[k]
         n += 1
     n_lines = offsets.shape[0]
     length = offsets.shape[1]
-    while top > 0:
-        top -= 1
-        p = stack[top]
+    head = 0
+    while head < n:
+        p = out[head]
+        head += 1
         py = p // w
         px = p - py * w
         for ny in range(max(py - 1, 0), min(py + 2, h)):
@@ -125,8 +123,6 @@ def _grown_along_lines(index, diff, limit, offsets, c, h, w, out):  # pragma: no
                     best = max(best, total)
                 if best >= limit[q]:
                     state[q] = 1
-                    stack[top] = q
-                    top += 1
                     out[n] = q
                     n += 1
                 else:

@@ -191,12 +191,9 @@ def offset_explains(
     if math.hypot(dx, dy) < _EXPLAIN_MIN:
         return True
     points = points.kept(exclude)
-    index, x, y, part = points.index, points.x, points.y, points.part
-    h, w = points.shape
-    flat = frame.reshape(-1)
-    ref = reference.reshape(-1)[index]
-    as_is = _part_medians(np.abs(flat[index] - ref), part)
-    moved = _part_medians(np.abs(_bilinear(flat, w, h, x + dx, y + dy) - ref), part)
+    part = points.part
+    as_is = _part_medians(_moved_back_difference(reference, frame, 0.0, 0.0, points), part)
+    moved = _part_medians(_moved_back_difference(reference, frame, dx, dy, points), part)
     counts = np.bincount(part, minlength=_EXPLAIN_GRID**2)
     judged = counts >= _TEXTURE_MIN_PART
     n = int(np.count_nonzero(judged))
@@ -218,9 +215,21 @@ def offset_mismatch(
     points = points.kept(exclude)
     if points.index.size == 0:
         return math.inf
-    h, w = points.shape
-    moved = _bilinear(frame.reshape(-1), w, h, points.x + dx, points.y + dy)
-    return float(np.median(np.abs(moved - reference.reshape(-1)[points.index])))
+    return float(np.median(_moved_back_difference(reference, frame, dx, dy, points)))
+
+
+def _moved_back_difference(
+    reference: np.ndarray, frame: np.ndarray, dx: float, dy: float, points: TexturePoints
+) -> np.ndarray:
+    """|reference - frame moved back by (dx, dy)| at ``points``, float32 reduced images; the
+    frame is read at the points only (bilinear, clamped), or as it is at (0, 0)."""
+    flat = frame.reshape(-1)
+    if dx == 0.0 and dy == 0.0:
+        moved = flat[points.index]
+    else:
+        h, w = points.shape
+        moved = _bilinear(flat, w, h, points.x + dx, points.y + dy)
+    return np.abs(moved - reference.reshape(-1)[points.index])
 
 
 def _refined_fit(
