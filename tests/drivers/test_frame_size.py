@@ -100,9 +100,10 @@ def _detect_peak_mb(clip: Path, *extra: str) -> float:
     arenas, which vary with the machine and its load (the same 1080p run peaked at 365 MB here
     and 643 MB on CI), so a bound on it either fails at random or proves nothing. What the
     frame-size limit controls is the detector's own arrays, and ``tracemalloc`` counts them
-    exactly, run after run."""
+    exactly, run after run. It starts after the imports, which are the same at any frame size
+    and which, traced, took most of the test's time."""
     code = (
-        "import sys, tracemalloc; tracemalloc.start(); from daemon.cli import main; "
+        "import sys, tracemalloc; from daemon.cli import main; tracemalloc.start(); "
         "s = main(sys.argv[1:]); print(tracemalloc.get_traced_memory()[1]); sys.exit(s)"
     )
     proc = subprocess.run(
@@ -118,11 +119,10 @@ def _detect_peak_mb(clip: Path, *extra: str) -> float:
 
 def test_detect_memory_does_not_grow_with_frame_size(tmp_path: Path) -> None:
     """4x the pixels of 1080p (8.3 MP) cost the detector no more than a decoded frame: measured
-    113-117 MB at 1080p and 120.7 MB at 2160p (110.2 and 110.1 MB before the motion estimate's
-    reduced image was capped at a reduction by 4, which moved the peak to a moment when, likely,
-    the 2160p frame is still alive before it is shrunk: 8.3 MB, a byte a pixel). With the limit
-    lifted, the same 2160p clip costs about 24 bytes more a pixel (259 MB), which is what the
-    check would see if frames were not shrunk."""
+    95.3 MB at 1080p and at 2160p, counted from after the imports (113-117 and 120.7 MB counted
+    from before them, in an earlier release). With the limit lifted, the same 2160p clip costs
+    about 24 bytes more a pixel (291.9 MB), which is what the check would see if frames were
+    not shrunk."""
     hd = _detect_peak_mb(write_flat_clip(tmp_path / "hd.avi", 1920, 1080))
     uhd_clip = write_flat_clip(tmp_path / "uhd.avi", 3840, 2160)
     uhd = _detect_peak_mb(uhd_clip)
