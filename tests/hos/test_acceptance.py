@@ -195,8 +195,9 @@ CLEAR_CASES = {
 
 @pytest.mark.parametrize("case", sorted(CLEAR_CASES))
 def test_clear_weather_stays_clear(case):
-    """Goal: under 3 % false positives in every robustness case (paper: 7 % overall)."""
-    res = _run(CLEAR_CASES[case], 300)
+    """Goal: under 3 % false positives in every robustness case (paper: 7 % overall), over
+    the 135 frames after the warm-up of a 200-frame run."""
+    res = _run(CLEAR_CASES[case], 200)
     post = [r for r, _ in res[WARMUP:]]
     fp = np.mean([r.rain for r in post])
     assert fp < 0.03, (case, fp)
@@ -204,25 +205,26 @@ def test_clear_weather_stays_clear(case):
 
 def test_shaking_camera_says_unstable_rather_than_guess():
     """Shaken by about 3 px, beyond the wind that ``robustness.motion_frame_px`` (2.5 px)
-    judges through: unstable, never rain."""
-    res = _run(SceneParams(shake_px=3.0), 200)
+    judges through: unstable (over the 100 frames after the warm-up), never rain."""
+    res = _run(SceneParams(shake_px=3.0), WARMUP + 100)
     states = [r.state for r, _ in res[WARMUP:]]
     assert states.count(State.UNSTABLE) / len(states) > 0.9
     assert not any(r.rain for r, _ in res)
 
 
-@pytest.mark.parametrize(("seed", "shake"), [(1, 0.35), (2, 0.35), (3, 0.6)])
+@pytest.mark.parametrize(("seed", "shake"), [(1, 0.35), (3, 0.6)])
 def test_camera_in_the_wind_is_held_still_and_judges(seed, shake):
     """A camera shaken by a third to two thirds of a pixel is translated back onto its
     reference before the background model sees it, and its edges, a pixel off at most, are
     held out by eq. 8 against the 3x3 neighbourhood: it judges rain and clear weather on every
-    frame (issue 10: with robustness.motion_frame_px at 0.3 px, it said unstable on every
-    frame; at 0.6 px, seed 3 still did)."""
-    clear = _run(SceneParams(cars=4, shake_px=shake), 300, seed=seed)
+    frame (200 of each; issue 10: with robustness.motion_frame_px at 0.3 px, it said unstable
+    on every frame; at 0.6 px, seed 3 still did, and seed 1 on a quarter of them. Seed 2 at
+    0.35 px, once a case of its own, failed under both limits as seed 1 does)."""
+    clear = _run(SceneParams(cars=4, shake_px=shake), 200, seed=seed)
     states = [r.state for r, _ in clear[WARMUP:]]
     assert states.count(State.UNSTABLE) / len(states) <= 0.01
     assert not any(r.rain for r, _ in clear)
-    rain = _run(SceneParams(cars=4, shake_px=shake, rain=StreakParams()), 300, seed=seed)
+    rain = _run(SceneParams(cars=4, shake_px=shake, rain=StreakParams()), 200, seed=seed)
     assert np.mean([r.rain for r, _ in rain[WARMUP + 25 :]]) >= 0.95
 
 
@@ -265,14 +267,15 @@ def test_a_gust_of_two_pixels_is_judged_through():
     peaks): translated back by whole pixels, what is left is within the 3x3 neighbourhood's
     reach as at 1 px, so every frame is judged, the rain is seen and clear weather stays
     clear (issue 10: with ``motion_frame_px`` at 1.5 px, the frames of the gust beyond 1.5 px
-    were unstable, up to 17 % of a windy scene's)."""
+    were unstable, up to 17 % of a windy scene's). Judged over frames 100-199: four seconds of
+    the gust, nearly five of its 2-px peaks."""
     said = {}
     for weather in (StreakParams(count=300, brightness=30.0), None):
         scene = Scene(W, H, seed=4, params=SceneParams(cars=2, rain=weather))
         det = HosDetector()
         results = [
             det.process(_swayed(scene.frame(i)[0], i, 2.0 if i >= 90 else 0.0), i / 25)
-            for i in range(300)
+            for i in range(200)
         ]
         late = results[100:]
         assert sum(r.state == State.UNSTABLE for r in late) <= 0.01 * len(late), weather
@@ -387,37 +390,36 @@ def test_dark_scene_says_dark():
     assert not any(r.rain for r, _ in res)
 
 
+def test_precipitation_is_detected():
+    """Rain through every distractor at once is seen after the warm-up (frames 90-199). Light
+    rain and snow, on their own, are asserted the same way, on the first 250 frames of
+    ``test_steady_precipitation_is_still_seen_after_a_minute``'s runs."""
+    res = _run(SceneParams.busy(shake_px=0.0, rain=StreakParams(mu_deg=75)), 200)
+    tpr = np.mean([r.rain for r, _ in res[WARMUP + 25 :]])
+    assert tpr >= 0.95, tpr
+
+
 @pytest.mark.parametrize(
     "name,params,min_tpr",
     [
+        ("steady_rain", SceneParams(cars=2, rain=StreakParams()), 0.95),
         (
-            "rain_through_traffic",
-            SceneParams.busy(shake_px=0.0, rain=StreakParams(mu_deg=75)),
+            "steady_light_rain",
+            SceneParams(cars=2, rain=StreakParams(count=80, brightness=25)),
             0.95,
         ),
-        ("light_rain", SceneParams(cars=2, rain=StreakParams(count=80, brightness=25)), 0.95),
-        ("snow", SceneParams(cars=2, snow=SnowParams()), 0.85),
+        ("steady_snow", SceneParams(cars=2, snow=SnowParams()), 0.85),
     ],
 )
-def test_precipitation_is_detected(name, params, min_tpr):
-    res = _run(params, 250)
-    tpr = np.mean([r.rain for r, _ in res[WARMUP + 25 :]])
-    assert tpr >= min_tpr, (name, tpr)
-
-
-@pytest.mark.parametrize(
-    "name,params",
-    [
-        ("steady_rain", SceneParams(cars=2, rain=StreakParams())),
-        ("steady_light_rain", SceneParams(cars=2, rain=StreakParams(count=80, brightness=25))),
-        ("steady_snow", SceneParams(cars=2, snow=SnowParams())),
-    ],
-)
-def test_steady_precipitation_is_still_seen_after_a_minute(name, params):
+def test_steady_precipitation_is_still_seen_after_a_minute(name, params, min_tpr):
     """The structure rule must not learn rain itself as structure: a daemon watches for
     hours. (A unit slip once made the per-pixel rate drift up until, after ~300 frames of
-    steady rain, every streak was "structural" and detection fell to 0 %.)"""
+    steady rain, every streak was "structural" and detection fell to 0 %.) The same run's
+    first 250 frames show it detected soon after the warm-up (frames 90-249: at least
+    ``min_tpr``)."""
     res = _run(params, 750)
+    tpr = np.mean([r.rain for r, _ in res[WARMUP + 25 : 250]])
+    assert tpr >= min_tpr, (name, tpr)
     late = np.mean([r.rain for r, _ in res[450:]])
     assert late >= 0.95, (name, late)
 
