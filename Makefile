@@ -41,11 +41,13 @@ format: install
 	$(BIN)/ruff check --fix .
 
 # The suite runs on up to TEST_JOBS workers (pytest-xdist; one per core, CI has two): every
-# test starts its own servers on ports it is given, so they do not meet. TEST_JOBS=0 runs it
-# in this process, for pdb.
+# test starts its own servers on ports it is given, so they do not meet. A worker that runs
+# out of tests takes some of the other's (worksteal), so the slowest tests (a minute of
+# rendered video) do not leave one core idle at the end. TEST_JOBS=0 runs it in this
+# process, for pdb.
 TEST_JOBS ?= 2
 test: install lint browser
-	$(BIN)/python -m pytest -q $(if $(filter 0,$(TEST_JOBS)),,-n auto --maxprocesses=$(TEST_JOBS))
+	$(BIN)/python -m pytest -q $(if $(filter 0,$(TEST_JOBS)),,-n auto --maxprocesses=$(TEST_JOBS) --dist worksteal)
 
 # The status page's tests drive Debian's chromium (tests/daemon/web/test_browser.py): installed
 # here when this runs as root on Debian, else they are skipped with the reason (under CI=true a

@@ -4,6 +4,7 @@ clear street, then rain), and on files it cannot read."""
 from __future__ import annotations
 
 import importlib.util
+import inspect
 import sys
 
 import numpy as np
@@ -20,6 +21,29 @@ sys.modules["eval_clips"] = clips  # its dataclass looks its module up
 _spec.loader.exec_module(clips)
 
 
+@pytest.fixture
+def remembered(monkeypatch) -> dict:
+    """``clips.evaluate`` made to remember its result for a clip and a set of arguments, for the
+    test's own calls and those of ``clips.main``: main given the arguments of an evaluation the
+    test made already prints that evaluation's result rather than running the detector over
+    the clip again (the same frames, decoded, drawn from a seeded generator and judged by a
+    fresh detector: the same result). Arguments that main passes otherwise than the test (a
+    flag not passed on, say) are evaluated anew. The results, by their arguments."""
+    real, signature = clips.evaluate, inspect.signature(clips.evaluate)
+    done: dict = {}
+
+    def evaluate(*args, **kwargs):
+        bound = signature.bind(*args, **kwargs)
+        bound.apply_defaults()
+        key = tuple(bound.arguments.items())
+        if key not in done:
+            done[key] = real(*args, **kwargs)
+        return done[key]
+
+    monkeypatch.setattr(clips, "evaluate", evaluate)
+    return done
+
+
 def _street(tmp_path, *, seed: int):
     """A 200-frame MJPEG street at 320x240, 25 fps: clear for 120 frames, then rain."""
     rain = StreakParams(count=250, length_px=10.0, brightness=40.0, mu_deg=95)
@@ -30,7 +54,9 @@ def _street(tmp_path, *, seed: int):
     return path
 
 
-def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys) -> None:
+def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(
+    tmp_path, capsys, remembered
+) -> None:
     path = _street(tmp_path, seed=5)
     bad = tmp_path / "notes.txt"
     bad.write_text("not a video\n")
@@ -53,7 +79,7 @@ def test_a_clip_that_turns_to_rain_is_reported_with_its_episode(tmp_path, capsys
     assert "notes.txt: cannot be read as a video" in err
 
 
-def test_a_second_pass_counts_the_whole_clip_and_its_parts(tmp_path, capsys) -> None:
+def test_a_second_pass_counts_the_whole_clip_and_its_parts(tmp_path, capsys, remembered) -> None:
     path = _street(tmp_path, seed=6)
 
     once = clips.evaluate(path, part_s=2.0)
@@ -88,7 +114,9 @@ def _clear_street(tmp_path, *, seed: int):
     return path
 
 
-def test_rain_drawn_over_a_clear_clip_is_told_apart_from_before_it(tmp_path, capsys) -> None:
+def test_rain_drawn_over_a_clear_clip_is_told_apart_from_before_it(
+    tmp_path, capsys, remembered
+) -> None:
     """``--draw``: the benchmark's light rain drawn from 4.8 s (frame 120) on. Before it
     no frame is said rain, from a second after it began (frame 145) nearly all are; the same
     clip without it says rain on no frame, so the drawn rain is what is seen."""
@@ -122,20 +150,25 @@ def test_rain_drawn_over_real_clear_clips_is_seen(shared_fixtures, name) -> None
     assert judged > 100 and said >= 0.9 * judged
 
 
+@pytest.fixture(scope="module")
+def clear_for_snow(tmp_path_factory):
+    """The clear street both kinds of snow are drawn over, written once for both."""
+    return _clear_street(tmp_path_factory.mktemp("snow"), seed=8)
+
+
 @pytest.mark.parametrize("kind", ["snow", "falling-snow"])
-def test_snow_drawn_over_a_clear_clip_is_seen_and_typed_snow(tmp_path, kind) -> None:
+def test_snow_drawn_over_a_clear_clip_is_seen_and_typed_snow(clear_for_snow, kind) -> None:
     """``--draw snow`` and ``falling-snow``: the benchmark's snow over a written clear street
     from 4.8 s on is precipitation on nearly every judged frame from a second after it began,
     and the camera types it snow, never rain."""
-    path = _clear_street(tmp_path, seed=8)
-    r = clips.evaluate(path, draw=kind, draw_from_s=4.8)
+    r = clips.evaluate(clear_for_snow, draw=kind, draw_from_s=4.8)
     assert r.before_drawn[1] == 0
     judged, said = r.with_drawn
     assert judged == 55 and said >= 0.9 * judged
     assert r.drawn_types["rain"] == 0 and r.drawn_types["snow"] >= 0.8 * judged
 
 
-def test_upscale_enlarges_every_frame_to_the_rows_asked(tmp_path, capsys) -> None:
+def test_upscale_enlarges_every_frame_to_the_rows_asked(tmp_path, capsys, remembered) -> None:
     """``--upscale ROWS``: a soft camera's picture, the width in proportion and even."""
     assert clips.upscaled_size((320, 240), 720) == (960, 720)
     assert clips.upscaled_size((640, 360), 1080) == (1920, 1080)
@@ -150,7 +183,7 @@ def test_upscale_enlarges_every_frame_to_the_rows_asked(tmp_path, capsys) -> Non
     path = _street(tmp_path, seed=7)
     r = clips.evaluate(path, max_frames=120, upscale_rows=480)
     assert r.size == (640, 480) and r.frames == 120
-    assert clips.main([str(path), "--upscale", "480", "--max-frames", "100"]) == 0
+    assert clips.main([str(path), "--upscale", "480", "--max-frames", "120"]) == 0
     assert "640x480" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         clips.main([str(path), "--upscale", "-1"])

@@ -18,16 +18,20 @@ W, H = 320, 240
 STOP = 160
 
 
-def _verdicts(collapse_ratio: float) -> list[bool]:
+def _verdicts(*collapse_ratios: float) -> dict[float, list[bool]]:
     """Moderate rain until STOP, then clear frames on which a few short near-vertical blobs
     (what noise and compression leave) are drawn at random places, 10 at first and fewer
-    each frame until none are left 25 frames after STOP."""
+    each frame until none are left 25 frames after STOP. The verdicts of a detector for each
+    of ``collapse_ratios``, all given the same frames (drawn once)."""
     rain = StreakParams(count=400)
     wet = Scene(W, H, seed=4, params=SceneParams(cars=1, rain=rain))
     dry = Scene(W, H, seed=4, params=SceneParams(cars=1))
-    det = HosDetector(DetectorParams.from_dict({"decision": {"collapse_ratio": collapse_ratio}}))
+    dets = {
+        ratio: HosDetector(DetectorParams.from_dict({"decision": {"collapse_ratio": ratio}}))
+        for ratio in collapse_ratios
+    }
     rng = np.random.default_rng(7)
-    out = []
+    out: dict[float, list[bool]] = {ratio: [] for ratio in collapse_ratios}
     for i in range(STOP + 60):
         if i < STOP:
             gray = wet.frame(i)[0]
@@ -37,7 +41,8 @@ def _verdicts(collapse_ratio: float) -> list[bool]:
                 x, y = int(rng.integers(5, W - 5)), int(rng.integers(5, H - 12))
                 dx = int(rng.integers(-1, 2))
                 cv2.line(gray, (x, y), (x + dx, y + 7), 255, 1)
-        out.append(det.process(gray, i / 25).rain)
+        for ratio, det in dets.items():
+            out[ratio].append(det.process(gray, i / 25).rain)
     return out
 
 
@@ -48,14 +53,17 @@ def _end(verdicts: list[bool]) -> int:
 
 
 @pytest.fixture(scope="module")
-def ends() -> dict[float, int]:
-    return {r: _end(_verdicts(r)) for r in (0.1, 0.0)}
+def verdicts() -> dict[float, list[bool]]:
+    return _verdicts(0.1, 0.0)
 
 
-def test_rain_is_seen_before_it_stops(ends):
-    del ends
-    verdicts = _verdicts(0.1)
-    assert np.mean(verdicts[90:STOP]) > 0.95
+@pytest.fixture(scope="module")
+def ends(verdicts) -> dict[float, int]:
+    return {r: _end(v) for r, v in verdicts.items()}
+
+
+def test_rain_is_seen_before_it_stops(verdicts):
+    assert np.mean(verdicts[0.1][90:STOP]) > 0.95
 
 
 def test_a_collapse_of_the_blobs_ends_the_verdict(ends):

@@ -104,14 +104,18 @@ def test_streaks_are_not_edges_moved() -> None:
 
 # -- in the detector ---------------------------------------------------------------------------
 DW, DH = 320, 240
-FRAMES = 400
+# 160 judged frames, in about 40 of which the pickets jitter: the rule's largest smoothed Pi
+# is 0.13 over them as over 310 (400 frames), the control's 99th percentile 0.28 (0.29), its
+# blobs a frame 11 (11), the rule's 0.8 (0.6)
+FRAMES = 250
 SETTLE = 90
 
 
-def _pickets(rain: bool, moved_edge_px: float) -> list:
+def _pickets(rain: bool, *moved_edge_px: float) -> dict[float, list]:
     """A textured view with 300 short bright pickets (1 px wide, 6-12 px tall) in its lower
     third, moved sideways by up to 0.8 px in a random quarter of the frames; with ``rain``,
-    150 faint streaks at 85 degrees drawn anew every frame."""
+    150 faint streaks at 85 degrees drawn anew every frame. The results after SETTLE of a
+    detector for each of ``moved_edge_px``, all given the same frames (drawn once)."""
     rng = np.random.default_rng(3)
     bg = cv2.GaussianBlur(rng.normal(90, 40, (DH, DW)).astype(np.float32), (0, 0), 1.5)
     posts = np.zeros((DH, DW), np.float32)
@@ -120,10 +124,13 @@ def _pickets(rain: bool, moved_edge_px: float) -> list:
         x, y0, n = int(rng.uniform(5, DW - 5)), int(rng.uniform(150, 225)), int(rng.uniform(6, 12))
         posts[y0 : y0 + n, x] = rng.uniform(150, 200)
         alpha[y0 : y0 + n, x] = 1.0
-    det = HosDetector(DetectorParams.from_dict({"robustness": {"moved_edge_px": moved_edge_px}}))
+    dets = {
+        px: HosDetector(DetectorParams.from_dict({"robustness": {"moved_edge_px": px}}))
+        for px in moved_edge_px
+    }
     move = np.random.default_rng(4)
     drops = np.random.default_rng(5)
-    out = []
+    out: dict[float, list] = {px: [] for px in moved_edge_px}
     for i in range(FRAMES):
         dx = 0.8 * move.uniform(-1, 1) if move.random() < 0.25 else 0.0
         m = np.float32([[1, 0, dx], [0, 1, 0]])
@@ -140,13 +147,14 @@ def _pickets(rain: bool, moved_edge_px: float) -> list:
             frame = frame + layer
         frame = frame + move.normal(0, 1.5, frame.shape)
         gray = np.clip(frame, 0, 255).astype(np.uint8)
-        out.append(det.process(gray, i / 25))
-    return out[SETTLE:]
+        for px, det in dets.items():
+            out[px].append(det.process(gray, i / 25))
+    return {px: results[SETTLE:] for px, results in out.items()}
 
 
 @pytest.fixture(scope="module")
 def dry() -> dict[float, list]:
-    return {px: _pickets(False, px) for px in (1.0, 0.0)}
+    return _pickets(False, 1.0, 0.0)
 
 
 def test_jittering_pickets_do_not_vote(dry) -> None:
@@ -165,5 +173,5 @@ def test_without_the_rule_the_pickets_come_near_the_threshold(dry) -> None:
 
 
 def test_rain_among_the_pickets_is_still_seen() -> None:
-    judged = [r for r in _pickets(True, 1.0) if r.state == "ok"]
+    judged = [r for r in _pickets(True, 1.0)[1.0] if r.state == "ok"]
     assert np.mean([r.rain for r in judged]) >= 0.95

@@ -23,9 +23,10 @@ FRAMES = 375
 WARM = 100  # the frames the truth's reference (a mean of the last 100 shakes) needs
 
 
-def _run(mover_rate: float) -> tuple[np.ndarray, int]:
-    """The offset fit's error against the drawn shake (pixels, a frame each after WARM) and
-    the frames said to be rain, on a clear scene of the tuning split's settings."""
+def _runs(*mover_rates: float) -> dict[float, tuple[np.ndarray, int]]:
+    """For each ``mover_rate``: the offset fit's error against the drawn shake (pixels, a frame
+    each after WARM) and the frames said to be rain, on a clear scene of the tuning split's
+    settings. The scene is rendered once; each frame goes to one detector a rate."""
     case = sample_case("tuning", 5202, condition="clear", camera="wind", frames=FRAMES)
     scene = Scene(W, H, seed=case.seed, params=case.params)
     # the blobs found again (departure 23) and, on their own, the thin rule (departure 25: 5
@@ -33,40 +34,46 @@ def _run(mover_rate: float) -> tuple[np.ndarray, int]:
     # 27: 5 false frames with the symmetric fit alone, none) and the moved edges (departure
     # 30: the vertical edges' slivers do not vote) also keep this scene clear without the
     # mover rule: all off here, so that the mover rule is shown alone
-    robustness = {
-        "mover_rate": mover_rate,
-        "found_again_radius": 0.0,
-        "motion_gradient": "mean",
-        "moved_edge_px": 0.0,
-    }
     segmentation = {"thin_factor": 1.0}
-    params = {"robustness": robustness, "segmentation": segmentation}
-    det = HosDetector(DetectorParams.from_dict(params))
-    fitted: list[tuple[float, float]] = []
-    fit = det._camera_offset
+    runs = []
+    for mover_rate in mover_rates:
+        robustness = {
+            "mover_rate": mover_rate,
+            "found_again_radius": 0.0,
+            "motion_gradient": "mean",
+            "moved_edge_px": 0.0,
+        }
+        params = {"robustness": robustness, "segmentation": segmentation}
+        det = HosDetector(DetectorParams.from_dict(params))
+        fitted: list[tuple[float, float]] = []
 
-    def recorded(small):
-        motion, shift = fit(small)
-        fitted.append(shift)
-        return motion, shift
+        def recorded(small, fit=det._camera_offset, fitted=fitted):
+            motion, shift = fit(small)
+            fitted.append(shift)
+            return motion, shift
 
-    det._camera_offset = recorded
-    shakes, errors, rain = [], [], 0
+        det._camera_offset = recorded
+        runs.append((det, fitted, [], [0]))
+    shakes = []
     for i in range(FRAMES):
         gray, truth = scene.frame(i)
         shakes.append(truth.shake)
-        result = det.process(gray, i / case.fps)
-        if i >= WARM:
-            # the reference learns over 100 frames: the camera's place is the mean of them
-            true = np.asarray(truth.shake) - np.mean(shakes[-100:], axis=0)
-            errors.append(float(np.hypot(*(np.asarray(fitted[-1]) - true))))
-            rain += bool(result.rain)
-    return np.asarray(errors), rain
+        for det, fitted, errors, rain in runs:
+            result = det.process(gray, i / case.fps)
+            if i >= WARM:
+                # the reference learns over 100 frames: the camera's place is the mean of them
+                true = np.asarray(truth.shake) - np.mean(shakes[-100:], axis=0)
+                errors.append(float(np.hypot(*(np.asarray(fitted[-1]) - true))))
+                rain[0] += bool(result.rain)
+    return {
+        rate: (np.asarray(errors), rain[0])
+        for rate, (_, _, errors, rain) in zip(mover_rates, runs, strict=True)
+    }
 
 
 @pytest.fixture(scope="module")
 def runs() -> dict[float, tuple[np.ndarray, int]]:
-    return {rate: _run(rate) for rate in (0.15, 0.0)}
+    return _runs(0.15, 0.0)
 
 
 def test_a_gust_in_the_crown_does_not_drag_the_camera_offset(runs):

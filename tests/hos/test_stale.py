@@ -7,6 +7,8 @@ the drop is during this exposure, so its pixels change from frame to frame; a co
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -37,16 +39,21 @@ def test_blob_change_is_the_mean_absolute_change_of_each_blobs_pixels():
     assert not same[1:].any()
 
 
-def _rain_then_ghosts(stale_level: float, *, ghost_frames: int = 14, stop: int = 160):
+def _rain_then_ghosts(*stale_levels: float, ghost_frames: int = 14, stop: int = 160):
     """Rain until ``stop``, then clear frames onto which the last rain frame's streaks are
     copied (as an encoder's skipped blocks do), a tenth of them refreshed away each frame.
-    The verdicts, frame by frame."""
+    The verdicts, frame by frame, of a detector for each of ``stale_levels``, all given the
+    same frames (drawn once)."""
     rain = StreakParams(count=250, brightness=30.0)
     wet = Scene(W, H, seed=3, params=SceneParams(cars=1, rain=rain))
     dry = Scene(W, H, seed=3, params=SceneParams(cars=1))
-    det = HosDetector(DetectorParams.from_dict({"robustness": {"stale_level": stale_level}}))
+    dets = {
+        level: HosDetector(DetectorParams.from_dict({"robustness": {"stale_level": level}}))
+        for level in stale_levels
+    }
     rng = np.random.default_rng(0)
-    verdicts, last, ghost = [], None, None
+    verdicts: dict[float, list[bool]] = {level: [] for level in stale_levels}
+    last, ghost = None, None
     for i in range(stop + ghost_frames + 20):
         if i < stop:
             gray, truth = wet.frame(i)
@@ -56,7 +63,8 @@ def _rain_then_ghosts(stale_level: float, *, ghost_frames: int = 14, stop: int =
             if i < stop + ghost_frames:
                 ghost &= rng.random(ghost.shape) > 0.1
                 gray[ghost] = last[ghost]
-        verdicts.append(det.process(gray, i / 25).rain)
+        for level, det in dets.items():
+            verdicts[level].append(det.process(gray, i / 25).rain)
     return verdicts
 
 
@@ -65,24 +73,30 @@ def test_streaks_copied_after_the_rain_stops_do_not_keep_it_raining():
     ``stale_level = 0`` (every blob votes), the copied streaks hold it for longer."""
     stop = 160
     ends = {}
-    for level in (1.0, 0.0):
-        verdicts = _rain_then_ghosts(level, stop=stop)
+    for level, verdicts in _rain_then_ghosts(1.0, 0.0, stop=stop).items():
         assert all(verdicts[120:stop]), level  # the rain itself is seen either way
         ends[level] = next(i for i in range(stop, len(verdicts)) if not verdicts[i]) - stop
     assert ends[1.0] <= 10
     assert ends[0.0] >= ends[1.0] + 4, ends
 
 
-def test_a_repeated_frame_holds_the_verdict():
+@pytest.fixture(scope="module")
+def raining():
+    """Frame ``i`` of the rain scene of the two tests below, rendered once for both (when
+    first asked for)."""
+    rain = StreakParams(count=250, brightness=30.0)
+    scene = Scene(W, H, seed=4, params=SceneParams(cars=1, rain=rain))
+    return functools.cache(lambda i: scene.frame(i)[0])
+
+
+def test_a_repeated_frame_holds_the_verdict(raining):
     """A stream that repeats a frame (a dropped frame filled in) shows the same streaks again:
     they are copies, so they do not vote, and the repeat is no evidence of dry weather
     either. The verdict holds through 15 repeats and the rain is seen again after them."""
-    rain = StreakParams(count=250, brightness=30.0)
-    scene = Scene(W, H, seed=4, params=SceneParams(cars=1, rain=rain))
     det = HosDetector()
     results = []
     for i in range(200):
-        gray = scene.frame(min(i, 150) if i < 165 else i)[0]
+        gray = raining(min(i, 150) if i < 165 else i)
         results.append(det.process(gray, i / 25))
     assert all(r.rain for r in results[120:])
     assert all(r.state == State.OK for r in results[120:])
@@ -90,13 +104,11 @@ def test_a_repeated_frame_holds_the_verdict():
     assert all(r.n_blobs == 0 for r in results[152:165])
 
 
-def test_a_frozen_stream_is_not_held_for_ever():
+def test_a_frozen_stream_is_not_held_for_ever(raining):
     """A stream frozen on a rain frame: the verdict holds for a moment (up to 25 repeats), then
     the frozen picture, which shows no fresh streak, decays to no precipitation."""
-    rain = StreakParams(count=250, brightness=30.0)
-    scene = Scene(W, H, seed=4, params=SceneParams(cars=1, rain=rain))
     det = HosDetector()
-    frozen = scene.frame(150)[0]
-    said = [det.process(scene.frame(i)[0] if i <= 150 else frozen, i / 25).rain for i in range(215)]
+    frozen = raining(150)
+    said = [det.process(raining(i) if i <= 150 else frozen, i / 25).rain for i in range(215)]
     assert all(said[120:176])  # 25 repeats held
     assert not any(said[200:])
