@@ -180,7 +180,7 @@ SHADED = {"shade": 0.45, "shade_speed_px_s": 80.0, "shake_px": 0.0, "exposure_st
 def test_a_street_under_drifting_shade_stays_judged_and_clear() -> None:
     scene = Scene(640, 360, seed=1, params=SceneParams.busy(**SHADED))
     # 185 judged frames: the control's 62 frames of relearning all come by frame 275 (62 of
-    # 210 judged by 300), the shade's edge sweeping the view from about frame 180
+    # 210 judged by 300), the shade's edge sweeping the view from about frame 170 on
     (states, rain), (control, _) = _states(scene, DetectorParams(), _without_shade(), frames=275)
     assert states[State.OK] == sum(states.values())
     assert rain == 0
