@@ -16,9 +16,11 @@ from __future__ import annotations
 
 import logging
 import math
+from typing import TYPE_CHECKING
 
-import cv2
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
+
 
 __all__ = [
     "DETECTOR_BYTES_PER_PIXEL",
@@ -67,6 +69,8 @@ def downscale(gray: np.ndarray, factor: int) -> np.ndarray:
         return gray
     h, w = gray.shape[0] // factor, gray.shape[1] // factor
     block = gray[: h * factor, : w * factor]
+    import cv2  # here, not at the top: every command's parser reads this module's limits
+
     return cv2.resize(block, (w, h), interpolation=cv2.INTER_AREA)
 
 

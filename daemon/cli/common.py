@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, NoReturn
 
 from drivers.errors import ConfigError
-from hos.params import DetectorParams
 
 if TYPE_CHECKING:
     from daemon.config import Config
+    from hos.params import DetectorParams
 
 __all__ = [
     "EXIT_INTERNAL",
@@ -74,6 +74,8 @@ class StopOnSignals:
 
 def config_params(path: str | None) -> tuple[Config | None, DetectorParams]:
     """The configuration file (or none) and its global detector parameters."""
+    from hos.params import DetectorParams  # numba and OpenCV: only for the commands that detect
+
     if path is None:
         return None, DetectorParams()
     # Imported here: pydantic costs 0.15 s of start-up that `weatherd detect VIDEO` without

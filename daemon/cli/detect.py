@@ -12,13 +12,8 @@ import sys
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
 
-import numpy as np
-
-from daemon.config import check_polygon
-from daemon.offline.progress import progress_bar
-from daemon.service.detection import detect_frames
 from drivers.errors import InputError, WeatherdError
 from drivers.frame_size import (
     DETECTOR_BYTES_PER_PIXEL,
@@ -26,19 +21,30 @@ from drivers.frame_size import (
     MAX_PIXELS_LIMIT,
     MIN_FRAME_PIXELS,
 )
-from drivers.sources import open_frames
-from drivers.video import Frame, VideoWriter, polygon_mask, read_roi_mask, roi_for_size
-from hos.overlay import draw_overlay
-from hos.pipeline import HosDetector
-from hos.result import FrameResult
 
 from .common import EXIT_INTERRUPTED, EXIT_OK, StopOnSignals, config_params
 
+if TYPE_CHECKING:
+    import numpy as np
+
+    from drivers.video import Frame
+    from hos.result import FrameResult
+
+# The detector, the decoder and OpenCV are imported by the handlers, not here: every
+# ``weatherd`` command builds its parser from this module, and ``weatherd get`` or
+# ``--help`` should not wait a second for numba and OpenCV to load.
 __all__ = ["read_roi", "register"]
 
 
 def _detect(args: argparse.Namespace) -> int:
     """``weatherd detect VIDEO``: the detector over a file or image folder, offline."""
+    from daemon.offline.progress import progress_bar
+    from daemon.service.detection import detect_frames
+    from drivers.sources import open_frames
+    from drivers.video import VideoWriter
+    from hos.overlay import draw_overlay
+    from hos.pipeline import HosDetector
+
     params = config_params(args.config)[1]
     frames = rain_frames = skipped = 0
     interrupted = False
@@ -171,6 +177,9 @@ def read_roi(path: str | os.PathLike[str], *, width: int, height: int) -> np.nda
     ------
     InputError : unreadable image, a mask that selects no pixel, or a bad polygon.
     """
+    from daemon.config import check_polygon
+    from drivers.video import polygon_mask, read_roi_mask, roi_for_size
+
     text = str(path).strip()
     if text.startswith("["):
         try:

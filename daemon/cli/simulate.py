@@ -14,12 +14,14 @@ import json
 import math
 from collections.abc import Iterator
 from pathlib import Path
-
-import numpy as np
+from typing import TYPE_CHECKING
 
 from drivers.errors import InputError
 
 from .common import EXIT_OK, as_json
+
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = ["register", "schedule"]
 
@@ -48,6 +50,8 @@ def schedule(
             raise InputError("--intensity cannot be used with --weather cycle")
         return None
     rain, snow = _KINDS[weather]
+    import numpy as np  # here: every command's parser imports this module
+
     steps = np.minimum(np.arange(frames) * len(intensities) // max(frames, 1), len(intensities) - 1)
     return [(rain * intensities[k], snow * intensities[k]) for k in steps]
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from daemon import cli
-from daemon.cli import detect as detect_command
+from daemon.service import detection
 from drivers.simulator import Scene, SceneParams, StreakParams, write_video
 from drivers.video import open_video
 from hos.params import DetectorParams
@@ -364,7 +364,8 @@ def test_internal_error_is_one_line_and_status_1(
         raise ZeroDivisionError("a bug")
         yield
 
-    monkeypatch.setattr(detect_command, "detect_frames", broken)
+    # the command imports it when it runs (daemon/cli/detect.py: a light parser)
+    monkeypatch.setattr(detection, "detect_frames", broken)
     assert cli.main(["detect", str(rainy_clip)]) == 1
     err = [line for line in capsys.readouterr().err.splitlines() if line.strip()]
     assert err == ["weatherd: error: internal error: ZeroDivisionError: a bug"]
