@@ -22,13 +22,16 @@ __all__ = ["DemoSource"]
 
 
 class DemoSource:
-    """The built-in synthetic street, ``demo:`` (``demo:?seed=3`` for another street).
+    """The built-in synthetic street, ``demo:`` (``demo:?seed=3`` for another street,
+    ``demo:?start=15`` to begin 15 s into its two-minute cycle: rain 5 s later).
 
     Parameters
     ----------
     width, height : frame size, pixels
     fps : frame rate, Hz; frame i is at ``t_s = i / fps``
     seed : the street and its weather
+    start_s : where in the street's cycle the first frame is, seconds (frame times still start
+        at 0)
     realtime : pace frames at ``fps`` (else as fast as they are read)
 
     Attributes
@@ -43,10 +46,15 @@ class DemoSource:
         height: int = 360,
         fps: float = 25.0,
         seed: int = 0,
+        start_s: float = 0.0,
         realtime: bool = True,
     ):
-        self.name = "demo:" if seed == 0 else f"demo:?seed={seed}"
+        options = "&".join(
+            f"{key}={value:g}" for key, value in (("seed", seed), ("start", start_s)) if value
+        )
+        self.name = f"demo:?{options}" if options else "demo:"
         self.width, self.height, self.fps, self.seed = int(width), int(height), float(fps), seed
+        self.start_s = float(start_s)
         self.truth: FrameTruth | None = None
         self._realtime = realtime
         self._closed = threading.Event()
@@ -58,7 +66,8 @@ class DemoSource:
     def open(self) -> None:
         if self._closed.is_set():
             raise SourceError(f"{self.name}: closed")
-        self._frames = demo_frames(self.width, self.height, self.fps, seed=self.seed)
+        start = round(self.start_s * self.fps)
+        self._frames = demo_frames(self.width, self.height, self.fps, seed=self.seed, start=start)
         self._open_ns = time.time_ns()
 
     def read(self) -> LiveFrame:

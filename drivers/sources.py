@@ -12,7 +12,7 @@ spec                   source                                                   
 ``rtsp://``,           a network stream FFmpeg opens (RTSP over TCP, MJPEG over HTTP,  stream
 ``rtsps://``,          HLS, MPEG-TS...), opened and read with timeouts
 ``http(s)://``
-``demo:``              the built-in synthetic street (``demo:?seed=3``)                demo
+``demo:``              the built-in synthetic street (``demo:?seed=3&start=15``)       demo
 =====================  ============================================================  ===========
 
 Each source module imports only :mod:`drivers.frames` (the protocol), never this one, and is
@@ -26,6 +26,7 @@ of a larger native size has each frame shrunk by an integer factor as it is read
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -260,15 +261,25 @@ class _Limited:
         return getattr(self._source, attribute)
 
 
-def _demo_query(name: str, query: str) -> dict[str, int]:
-    """``?seed=3`` of a demo spec as keyword arguments."""
+def _demo_query(name: str, query: str) -> dict[str, float]:
+    """``?seed=3&start=15`` of a demo spec as keyword arguments: ``seed`` (the street, an
+    integer) and ``start`` (seconds into the street's weather cycle, >= 0)."""
     query = query.removeprefix("//").removeprefix("?")
-    out: dict[str, int] = {}
+    out: dict[str, float] = {}
     for key, value in parse_qsl(query, keep_blank_values=True):
-        if key != "seed":
-            raise ConfigError(f"{name}: unknown demo option {key!r} (known: seed)")
-        try:
-            out["seed"] = int(value)
-        except ValueError:
-            raise ConfigError(f"{name}: seed must be an integer, got {value!r}") from None
+        if key == "seed":
+            try:
+                out["seed"] = int(value)
+            except ValueError:
+                raise ConfigError(f"{name}: seed must be an integer, got {value!r}") from None
+        elif key == "start":
+            try:
+                start = float(value)
+            except ValueError:
+                start = math.nan
+            if not math.isfinite(start) or start < 0:
+                raise ConfigError(f"{name}: start must be a number of seconds >= 0, got {value!r}")
+            out["start_s"] = start
+        else:
+            raise ConfigError(f"{name}: unknown demo option {key!r} (known: seed, start)")
     return out

@@ -228,7 +228,7 @@ def register(commands: argparse._SubParsersAction, parents: list[argparse.Argume
     detect.add_argument(
         "video",
         metavar="VIDEO",
-        help="a video file, a folder of images, file:PATH, or demo: (demo:?seed=N) the "
+        help="a video file, a folder of images, file:PATH, or demo: (demo:?seed=N&start=S) the "
         "built-in synthetic street, which needs --frames or --seconds",
     )
     detect.add_argument(

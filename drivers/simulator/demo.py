@@ -65,13 +65,13 @@ def demo_params(
 
 
 def demo_frames(
-    width: int = 640, height: int = 360, fps: float = 25, *, seed: int = 0
+    width: int = 640, height: int = 360, fps: float = 25, *, seed: int = 0, start: int = 0
 ) -> Iterator[tuple[np.ndarray, FrameTruth]]:
-    """Endless (gray, truth) frames for the daemon's demo camera.
+    """Endless (gray, truth) frames for the daemon's demo camera, from frame ``start`` on.
 
     The street of :func:`demo_params`; the weather cycles every two minutes: clear (20 s),
     moderate rain (40 s), clear (20 s), then snow (40 s) on even cycles and heavy rain on odd
-    ones.
+    ones. Frame ``i`` is the same whatever ``start`` is.
     """
     params = demo_params(width, height, fps)
-    yield from Scene(width, height, seed=seed, params=params).frames()
+    yield from Scene(width, height, seed=seed, params=params).frames(start)

@@ -183,6 +183,9 @@ def test_unknown_scheme_is_a_config_error_naming_the_spec(spec: str) -> None:
         ("v4l2:", {}, "no device"),
         ("demo:?speed=2", {}, "unknown demo option"),
         ("demo:?seed=x", {}, "seed must be an integer"),
+        ("demo:?start=-1", {}, "start must be a number of seconds >= 0"),
+        ("demo:?start=soon", {}, "start must be a number of seconds >= 0"),
+        ("demo:?start=nan", {}, "start must be a number of seconds >= 0"),
         ("demo:", {"width": 320}, "both width and height"),
         ("demo:", {"fps": 0}, "fps must be > 0"),
         ("http:///x", {}, "no host"),
@@ -225,6 +228,29 @@ def test_demo_source_renders_the_requested_size_with_increasing_times() -> None:
     assert frames[1].t_ns - frames[0].t_ns == 100_000_000
     with pytest.raises(SourceError):
         source.read()
+
+
+def test_demo_start_begins_later_in_the_same_weather() -> None:
+    """``demo:?start=21``: the street's frame 21 s into its cycle comes first (in its rain,
+    which begins at 20 s), at time 0; the same street and weather as ``demo:`` there."""
+
+    def first(spec: str, skip: int = 0):
+        source = open_source(spec, width=64, height=48, fps=10, realtime=False)
+        source.open()
+        try:
+            for _ in range(skip):
+                source.read()
+            return source, source.read()
+        finally:
+            source.close()
+
+    late, frame = first("demo:?start=21")
+    assert late.name == "demo:?start=21" and frame.index == 0 and frame.t_s == 0.0
+    assert late.truth.rain_intensity > 0
+    plain, same = first("demo:", skip=210)
+    assert np.array_equal(frame.gray, same.gray) and plain.truth.rain_intensity > 0
+    assert first("demo:")[0].truth.rain_intensity == 0
+    assert open_source("demo:?seed=3&start=2.5").name == "demo:?seed=3&start=2.5"
 
 
 def test_demo_seed_changes_the_street() -> None:
