@@ -416,8 +416,8 @@ def test_steady_precipitation_is_still_seen_after_a_minute(name, params, min_tpr
     hours. (A unit slip once made the per-pixel rate drift up until, after ~300 frames of
     steady rain, every streak was "structural" and detection fell to 0 %.) The same run's
     first 250 frames show it detected soon after the warm-up (frames 90-249: at least
-    ``min_tpr``)."""
-    res = _run(params, 750)
+    ``min_tpr``), and its last 150 (frames 450-599) that it still is."""
+    res = _run(params, 600)
     tpr = np.mean([r.rain for r, _ in res[WARMUP + 25 : 250]])
     assert tpr >= min_tpr, (name, tpr)
     late = np.mean([r.rain for r, _ in res[450:]])
@@ -506,8 +506,9 @@ def test_a_pooled_frame_still_reports_its_own_histogram():
 
 
 def _said_at_720_rows(scalings, *, shake_px: float) -> dict:
-    """Drizzle-like streaks (5 px long, 8 grey levels) at 1280x720, with sensor noise: the
-    share of frames said rain for each ``segmentation.min_area_scaling``."""
+    """Drizzle-like streaks (5 px long, 8 grey levels, at 95 degrees) at 1280x720, with sensor
+    noise: the share of frames said rain for each ``segmentation.min_area_scaling``; where
+    rain is said, its smoothed orientation is within 3 degrees of the streaks'."""
     drizzle = StreakParams(count=500, length_px=5.0, brightness=8.0, sigma_deg=12.0, mu_deg=95)
     params = SceneParams(cars=1, rain=drizzle, sensor_noise=2.0, shake_px=shake_px)
     scene = Scene(1280, 720, seed=8, params=params)
@@ -517,9 +518,9 @@ def _said_at_720_rows(scalings, *, shake_px: float) -> dict:
         det = HosDetector(DetectorParams.from_dict({"segmentation": {"min_area_scaling": scaling}}))
         results = [det.process(f, i / 25) for i, f in enumerate(frames)]
         said[scaling] = np.mean([r.rain for r in results[90:]])
-        if scaling == "length":
-            mus = [math.degrees(r.mu_smoothed) for r in results[90:] if r.rain]
-            assert abs(np.median(mus) - 95) < 3
+        mus = [math.degrees(r.mu_smoothed) for r in results[90:] if r.rain]
+        if len(mus) > 10:
+            assert abs(np.median(mus) - 95) < 3, scaling
     return said
 
 
@@ -528,9 +529,11 @@ def test_short_streaks_at_720_rows_pass_the_size_rule_that_scales_with_the_heigh
     paper's bounds scaled with the area ask 9 pixels at 720 rows and reject nearly all of
     them; scaled with the height (``segmentation.min_area_scaling = "length"``), 6 pixels let
     them vote; ``"still"`` (the default) does so while the camera stands still
-    (docs/method.md, departure 15)."""
-    said = _said_at_720_rows(("length", "area", "still"), shake_px=0.0)
-    assert said["length"] > 0.9 and said["still"] > 0.9 and said["area"] < 0.1, said
+    (docs/method.md, departure 15). The length law alone is shown under the shaken camera of
+    the next test, where it sees the same drizzle."""
+    assert HosDetector().params.segmentation.min_area_scaling == "still"
+    said = _said_at_720_rows(("area", "still"), shake_px=0.0)
+    assert said["still"] > 0.9 and said["area"] < 0.1, said
 
 
 def test_a_shaken_camera_at_720_rows_keeps_the_area_law():
