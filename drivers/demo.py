@@ -50,7 +50,9 @@ class DemoSource:
         realtime: bool = True,
     ):
         options = "&".join(
-            f"{key}={value:g}" for key, value in (("seed", seed), ("start", start_s)) if value
+            option
+            for option, given in ((f"seed={seed}", seed), (f"start={start_s:g}", start_s))
+            if given
         )
         self.name = f"demo:?{options}" if options else "demo:"
         self.width, self.height, self.fps, self.seed = int(width), int(height), float(fps), seed

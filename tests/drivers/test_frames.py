@@ -251,6 +251,7 @@ def test_demo_start_begins_later_in_the_same_weather() -> None:
     assert np.array_equal(frame.gray, same.gray) and plain.truth.rain_intensity > 0
     assert first("demo:")[0].truth.rain_intensity == 0
     assert open_source("demo:?seed=3&start=2.5").name == "demo:?seed=3&start=2.5"
+    assert open_source("demo:?seed=123456789").name == "demo:?seed=123456789"
 
 
 def test_demo_seed_changes_the_street() -> None:
