@@ -16,7 +16,7 @@ SHARED_FIXTURES = REPO.parent / "shared" / "fixtures"
 
 # The suite runs one pytest-xdist worker per core (`make test`). OpenCV would give each worker
 # its own pool of one thread per core too, and on CI's two cores four busy threads then take
-# turns: the same tests took 5-10 % more CPU time (tests/hos/test_acceptance.py, alternated
+# turns: the same tests took about 5 % more CPU time (tests/hos/test_acceptance.py, alternated
 # runs). Each worker, and every weatherd it starts, uses one OpenCV thread; the environment
 # variable is read by OpenCV when it is first imported.
 if int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")) > 1:
