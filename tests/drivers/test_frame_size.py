@@ -136,7 +136,6 @@ def test_detect_memory_does_not_grow_with_frame_size(tmp_path: Path) -> None:
     uhd = _detect_peak_mb(uhd_clip)
     unlimited = _detect_peak_mb(uhd_clip, "--max-pixels", str(3840 * 2160))
     extra_pixels = 3840 * 2160 - 1920 * 1080
-    print(f"peak MB: 1080p {hd:.1f}, 2160p {uhd:.1f}, 2160p unlimited {unlimited:.1f}")
     assert uhd - hd < extra_pixels * 2 / 1e6, (hd, uhd)  # one 2160p frame at most
     assert unlimited - hd > extra_pixels * 10 / 1e6, (hd, unlimited)
 

@@ -386,7 +386,6 @@ def test_demo_street_has_no_false_rain_in_its_clear_phases():
                 false += r.rain
                 episodes += r.rain and not was
             was = r.rain
-    print(f"clear frames judged: {clear}")
     assert clear > 800
     assert episodes == 0 and false == 0, (episodes, false)
 
