@@ -184,3 +184,37 @@ def test_warm_up_compiles_every_kernel_the_detector_calls():
     for i in range(70):
         det.process(scene.frame(i)[0], i / 25)
     assert [len(k.signatures) for k in kernels] == before
+
+
+_SIGNATURES = (
+    "import numba, hos._jit as j, hos._jit_mixture as m, hos._jit_motion as t;"
+    "ks = {f'{mod.__name__}.{n}': sorted(map(str, k.signatures)) for mod in (j, m, t)"
+    " for n, k in vars(mod).items() if isinstance(k, numba.core.registry.CPUDispatcher)};"
+    "print(sorted((n, s) for n, s in ks.items() if s))"
+)
+
+
+@needs_jit
+def test_the_install_s_two_kernel_groups_are_every_kernel_warm_up_loads():
+    """``make install`` compiles the kernels in two groups, one per core: together they must
+    be every kernel that warm_up() compiles (else the first run compiles the rest)."""
+    every = run_python("import hos._jit as j; j.warm_up();" + _SIGNATURES)
+    groups = run_python(
+        "import hos._jit as j; [j.warm_up(g) for g in range(len(j.WARM_UP_GROUPS))];" + _SIGNATURES
+    )
+    assert groups == every
+    # the five entry points (the other kernels are compiled into them)
+    assert every.count("'hos._jit") == 5, every
+
+
+@needs_jit
+def test_compile_in_parallel_runs_the_groups_in_child_processes():
+    code = "import hos._jit as j; s = j.compile_in_parallel(); print(s > 0);" + _SIGNATURES
+    loaded_here, kernels = run_python(code).splitlines()
+    assert loaded_here == "True"
+    assert kernels == "[]"  # the children compiled (or loaded) them, not this process
+
+
+def test_an_unknown_kernel_group_is_refused():
+    with pytest.raises(ValueError, match="unknown kernel group 2"):
+        _jit.warm_up(2)
