@@ -10,6 +10,10 @@ PIP_VERSION := 26.3
 # The installer of `make install` (uv, or INSTALLER=pip) and uv's version.
 INSTALLER ?= uv
 UV_VERSION := 0.13.9
+# setuptools warns about every editable install that folders named like its packages may
+# shadow them: here they are those packages.
+PIP_INSTALL = PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip install \
+	--quiet --disable-pip-version-check -c $(DEV_LOCK) -e '.[test]'
 # `make wheelhouse`: wheels for these targets (CPython, glibc >= 2.35: Debian 12, Ubuntu 22.04).
 WHEEL_ARCHS ?= x86_64 aarch64
 WHEEL_PYTHON ?= 3.11
@@ -29,15 +33,17 @@ $(STAMP): pyproject.toml $(LOCK) $(DEV_LOCK)
 	@# installs with pip alone (where uv has no wheel).
 ifeq ($(INSTALLER),pip)
 	$(BIN)/python -m pip install --quiet --disable-pip-version-check 'pip==$(PIP_VERSION)'
-	@# setuptools warns about every editable install that folders named like its packages may
-	@# shadow them: here they are those packages.
-	PYTHONWARNINGS="ignore:Editable installation" \
-		$(BIN)/python -m pip install --quiet --disable-pip-version-check -c $(DEV_LOCK) -e '.[test]'
+	$(PIP_INSTALL)
 else
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check 'uv==$(UV_VERSION)'
-	PYTHONWARNINGS="ignore:Editable installation" UV_LINK_MODE=copy \
+	@# uses the system's certificates, as pip does here (PIP_CERT); where uv cannot install
+	@# (no wheel of it, an index it cannot reach), pip does it all
+	($(BIN)/python -m pip install --quiet --disable-pip-version-check 'uv==$(UV_VERSION)' && \
+		PYTHONWARNINGS="ignore:Editable installation" UV_LINK_MODE=copy UV_NATIVE_TLS=1 \
 		$(BIN)/uv pip install --quiet --python $(BIN)/python --compile-bytecode \
-		-c $(DEV_LOCK) -e '.[test]' 'pip==$(PIP_VERSION)'
+		-c $(DEV_LOCK) -e '.[test]' 'pip==$(PIP_VERSION)') || \
+		(echo "uv could not install the packages: installing them with pip" && \
+		$(BIN)/python -m pip install --quiet --disable-pip-version-check 'pip==$(PIP_VERSION)' && \
+		$(PIP_INSTALL))
 endif
 	@# Compile the detector's numba kernels into their on-disk cache now, in two processes (11 s
 	@# instead of 20 s), not during the first run.
