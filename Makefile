@@ -10,9 +10,10 @@ PIP_VERSION := 26.3
 # The installer of `make install` (uv, or INSTALLER=pip) and uv's version.
 INSTALLER ?= uv
 UV_VERSION := 0.13.9
-# setuptools warns about every editable install that folders named like its packages may
-# shadow them: here they are those packages.
-PIP_INSTALL = PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip install \
+# The install with pip alone. setuptools warns about every editable install that folders
+# named like its packages may shadow them: here they are those packages.
+PIP_INSTALL = $(BIN)/python -m pip install --quiet --disable-pip-version-check 'pip==$(PIP_VERSION)' && \
+	PYTHONWARNINGS="ignore:Editable installation" $(BIN)/python -m pip install \
 	--quiet --disable-pip-version-check -c $(DEV_LOCK) -e '.[test]'
 # `make wheelhouse`: wheels for these targets (CPython, glibc >= 2.35: Debian 12, Ubuntu 22.04).
 WHEEL_ARCHS ?= x86_64 aarch64
@@ -32,7 +33,6 @@ $(STAMP): pyproject.toml $(LOCK) $(DEV_LOCK)
 	@# numpy's, numba's and zenoh's modules again at every start. `make install INSTALLER=pip`
 	@# installs with pip alone (where uv has no wheel).
 ifeq ($(INSTALLER),pip)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check 'pip==$(PIP_VERSION)'
 	$(PIP_INSTALL)
 else
 	@# uses the system's certificates, as pip does here (PIP_CERT); where uv cannot install
@@ -41,9 +41,7 @@ else
 		PYTHONWARNINGS="ignore:Editable installation" UV_LINK_MODE=copy UV_NATIVE_TLS=1 \
 		$(BIN)/uv pip install --quiet --python $(BIN)/python --compile-bytecode \
 		-c $(DEV_LOCK) -e '.[test]' 'pip==$(PIP_VERSION)') || \
-		(echo "uv could not install the packages: installing them with pip" && \
-		$(BIN)/python -m pip install --quiet --disable-pip-version-check 'pip==$(PIP_VERSION)' && \
-		$(PIP_INSTALL))
+		(echo "uv could not install the packages: installing them with pip" && $(PIP_INSTALL))
 endif
 	@# Compile the detector's numba kernels into their on-disk cache now, in two processes (11 s
 	@# instead of 20 s), not during the first run.
