@@ -94,13 +94,17 @@ class SegmentationParams:
     #: noise / sqrt(line_length))``, the noise being the local standard deviation of that
     #: difference (its mean absolute value times sqrt(pi / 2) over ``line_window`` pixels
     #: square), and when it touches a candidate through such pixels: a faint streak's pixels,
-    #: under MOG2's per-pixel threshold, integrated along the streak. 0 (the default): off;
-    #: 9 sees more faint rain (the real motorway in heavy rain 61 -> 77 % of its frames) but
-    #: grows snowflakes in the wind into streaks, and costs more (docs/method.md, departure 36).
-    line_length: int = 0
+    #: under MOG2's per-pixel threshold, integrated along the streak. 0: off (eq. 8 alone).
+    #: The default since the cap below (docs/method.md, departure 36).
+    line_length: int = 9
     line_orientations: int = 12
     line_k: float = 6.0
     line_window: int = 31
+    #: Each pixel's difference counts toward a line's sum up to ``line_cap`` times the
+    #: line's per-pixel threshold, so that the line must be met along its length, not by one
+    #: bright blob on it (a snowflake lengthening itself). 0: no cap (the rule as first
+    #: tried, which cost snow in the wind its detection).
+    line_cap: float = 1.5
 
     def __post_init__(self) -> None:
         _check(self.method in ("mog", "framediff"), "method", 'must be "mog" or "framediff"')
@@ -117,6 +121,7 @@ class SegmentationParams:
         _check(self.line_orientations >= 2, "line_orientations", "must be >= 2")
         _check(self.line_k >= 0, "line_k", "must be >= 0")
         _check(self.line_window >= 3, "line_window", "must be >= 3")
+        _check(self.line_cap == 0 or self.line_cap >= 1, "line_cap", "must be 0 (no cap) or >= 1")
         _check(1 <= self.min_area <= self.max_area, "min_area", "must be >= 1 and <= max_area")
         _check(self.size_reference_height >= 1, "size_reference_height", "must be >= 1")
         _check(
