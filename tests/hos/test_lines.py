@@ -110,8 +110,8 @@ def test_off_the_candidates_are_eq8s() -> None:
     leaves partly in the background (8 grey levels at its core, in noise of 2: D = 3
     standard deviations is 6) is found on many more of its pixels, and a frame without
     streaks gains almost nothing. Uncapped (``line_cap = 0``), half as many again; capped
-    (the default), a little less: the streak's core, 8 over a line threshold of 4, counts
-    as 6."""
+    (1.5, the default cap), a little less: the streak's core, 8 over a line threshold of 4,
+    counts as 6."""
     shape = (180, 240)
     base = cv2.GaussianBlur(
         np.random.default_rng(2).uniform(60, 140, shape).astype(np.float32), (0, 0), 4
@@ -191,3 +191,12 @@ def test_a_bright_flake_does_not_lengthen_itself_under_the_cap(seed: int) -> Non
     plain = grown_along_lines(seeds, diff, limit, lines, c=3)
     kept = grown_along_lines(seeds, line_capped(diff, limit, cap=2.0, length=9), limit, lines, c=3)
     assert on[kept].sum() >= 0.9 * on[plain].sum()
+
+
+@pytest.mark.parametrize("cap", [0.5, -1.0])
+def test_a_cap_under_one_is_refused(cap: float) -> None:
+    """Under 1, a capped pixel could fall under eq. 8's c and the cap would change which
+    pixels may join: refused, and the key named."""
+    with pytest.raises(ValueError, match="line_cap"):
+        SegmentationParams(line_cap=cap)
+    assert SegmentationParams(line_cap=0.0).line_cap == 0.0  # no cap
