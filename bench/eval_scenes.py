@@ -103,6 +103,22 @@ def false_onsets(verdicts: list[bool]) -> int:
     return sum(1 for a, b in zip([False, *verdicts], verdicts, strict=False) if b and not a)
 
 
+def onsets_within(verdicts: list[bool], scored: list[bool]) -> int:
+    """Rises of the verdict within each run of consecutive ``scored`` frames. A run's first
+    frame carries what came before it: a shower's verdict held past its end is counted as
+    false frames and as latency, not as an onset; a verdict that falls and rises again
+    within the run is a false onset."""
+    rises = 0
+    before: bool | None = None  # the verdict of the run's last frame; None: not in a run
+    for verdict, counted in zip(verdicts, scored, strict=True):
+        if not counted:
+            before = None
+            continue
+        rises += before is not None and verdict and not before
+        before = verdict
+    return rises
+
+
 def latency(verdicts: list[bool], truth: list[bool], change: int, *, to: bool) -> float | None:
     """Frames from ``change`` (where the truth becomes ``to``) until the verdict says ``to``;
     None when it never does before the truth changes again."""
@@ -182,6 +198,7 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
     if case.camera == "knock" and case.reaim:
         recovered = next((k for k in range(after_move, n) if states[k] == State.OK), n)
         res.recovery = float(recovered - after_move) if recovered < n else math.inf
+    clear_scored = [False] * n  # the clear frames judged, away from a change of the truth
     for i in range(SETTLE, n):
         near_change = any(truths[j] != truths[i] for j in range(max(0, i - TRANSITION), i))
         if moving[i]:
@@ -197,6 +214,7 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
             truth = ("snow" if case.condition == "snow" else "rain") if truths[i] else "clear"
             res.types[(truth, kinds[i] if verdicts[i] else "unknown")] += 1
         if not truths[i] and states[i] == State.OK:
+            clear_scored[i] = True
             res.judged_clear += 1
             res.false_frames += verdicts[i]
             res.clear_pi.append(pis[i])
@@ -207,6 +225,10 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
             res.detected_visible += visible[i] and verdicts[i] and states[i] == State.OK
     clear_verdicts = [verdicts[i] for i in range(SETTLE, n) if not truths[i] and not moving[i]]
     res.false_onsets = false_onsets(clear_verdicts) if case.condition == "clear" else 0
+    if case.condition == "transition":
+        # the clear weather before and after a shower: a verdict that ends with the shower
+        # and comes back on a wet road is a false onset
+        res.false_onsets = onsets_within(verdicts, clear_scored)
     if case.rain_frames is not None:
         on, off = case.rain_frames
         res.latency_on = latency(verdicts, truths, on, to=True)
@@ -303,7 +325,10 @@ def table(results: list[CaseResult]) -> tuple[list[list[str]], dict[str, float]]
             ]
         )
     clear_frames = sum(r.judged_clear for r in results)
-    clear_hours = sum(r.judged_clear / r.fps for r in results if r.condition == "clear") / 3600.0
+    onset_conditions = ("clear", "transition")  # where false onsets are counted
+    clear_hours = (
+        sum(r.judged_clear / r.fps for r in results if r.condition in onset_conditions) / 3600.0
+    )
     still = [r for r in results if r.camera in ("static", "wind")]
     totals = {
         "false rain (% clear frames)": 100

@@ -33,6 +33,19 @@ def test_false_onsets_count_rises() -> None:
     assert ev.false_onsets([False, True, True, False, True, False]) == 2
 
 
+def test_onsets_within_runs_of_scored_frames() -> None:
+    """A run's first frame carries what came before it (a shower's verdict held past its end
+    is no onset); a rise inside a run is one; a gap starts a new run."""
+    t, f = True, False
+    assert ev.onsets_within([], []) == 0
+    assert ev.onsets_within([t, t, f], [t, t, t]) == 0
+    assert ev.onsets_within([t, f, f, t, t], [t, t, t, t, t]) == 1
+    assert ev.onsets_within([f, t, f, t], [t, t, t, t]) == 2
+    # the rise falls on the first frame after a gap: carried, not counted
+    assert ev.onsets_within([f, f, t, t], [t, f, t, t]) == 0
+    assert ev.onsets_within([f, t, t, f, t], [t, t, f, t, t]) == 2
+
+
 def test_latency() -> None:
     truth = [False] * 5 + [True] * 5 + [False] * 5
     verdict = [False] * 7 + [True] * 5 + [False] * 3
