@@ -223,9 +223,10 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
             res.detected += verdicts[i] and states[i] == State.OK
             res.wet_visible += visible[i]
             res.detected_visible += visible[i] and verdicts[i] and states[i] == State.OK
-    clear_verdicts = [verdicts[i] for i in range(SETTLE, n) if not truths[i] and not moving[i]]
-    res.false_onsets = false_onsets(clear_verdicts) if case.condition == "clear" else 0
-    if case.condition == "transition":
+    if case.condition == "clear":
+        clear = [verdicts[i] for i in range(SETTLE, n) if not truths[i] and not moving[i]]
+        res.false_onsets = false_onsets(clear)
+    elif case.condition == "transition":
         # the clear weather before and after a shower: a verdict that ends with the shower
         # and comes back on a wet road is a false onset
         res.false_onsets = onsets_within(verdicts, clear_scored)
