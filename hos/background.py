@@ -240,6 +240,8 @@ class PhotometricRule:
         self._background_u8: np.ndarray | None = None
         self._band = 0
         self._lines: np.ndarray | None = None  # line_offsets of departure 36
+        #: the last frame's blocks' level (:func:`relevel_blocks`), None when not re-levelled
+        self.level: np.ndarray | None = None
 
     @property
     def background(self) -> np.ndarray | None:
@@ -277,6 +279,7 @@ class PhotometricRule:
         correction missed, departure 32), weighted by ``relevel_mask`` (one float32 weight
         a block, 1 where to re-level; None: everywhere).
         """
+        self.level = None
         if self._background is None or self._background.shape != gray.shape:
             self._background = gray.astype(np.float32)
             self._background_u8 = gray.copy()
@@ -289,7 +292,8 @@ class PhotometricRule:
         if neighbourhood:
             reference = neighbourhood_background(reference)
         if relevel > 0:
-            reference = relevelled(gray, reference, relevel, relevel_mask)
+            self.level = relevel_blocks(gray, reference, relevel, relevel_mask)
+            reference = relevel_apply(reference, self.level, relevel)
         if self._compiled:
             index, _ = _jit.photometric_candidates(gray, fg, reference, c=c)
         else:
@@ -343,6 +347,15 @@ def relevelled(
     re-levelled. Four passes over the frame: the two area reductions, the upsampling and the
     addition; the median is taken on the blocks.
     """
+    level = relevel_blocks(gray, reference, scale, where)
+    return relevel_apply(reference, level, scale)
+
+
+def relevel_blocks(
+    gray: np.ndarray, reference: np.ndarray, scale: int, where: np.ndarray | None = None
+) -> np.ndarray:
+    """The blocks' level of :func:`relevelled`: (h // scale, w // scale) uint8, the median
+    of ``gray - reference`` over 5 x 5 blocks plus 128, weighted by ``where``."""
     h, w = gray.shape
     hs, ws = max(h // scale, 1), max(w // scale, 1)
     if scale > 1:
@@ -356,6 +369,15 @@ def relevelled(
     level = cv2.medianBlur(cv2.addWeighted(gray, 1.0, small, -1.0, 128.0, dtype=cv2.CV_8U), 5)
     if where is not None:  # on the blocks: cheap
         level = cv2.convertScaleAbs((level.astype(np.float32) - 128.0) * where + 128.0)
+    return level
+
+
+def relevel_apply(reference: np.ndarray, level: np.ndarray, scale: int) -> np.ndarray:
+    """``reference`` plus the blocks' ``level`` (:func:`relevel_blocks`), bilinear between
+    the blocks."""
+    h, w = reference.shape
+    hs, ws = level.shape
+    hb, wb = min(hs * scale, h), min(ws * scale, w)
     if scale > 1:
         level = cv2.resize(level, (wb, hb), interpolation=cv2.INTER_LINEAR)
         if (hb, wb) != (h, w):

@@ -962,12 +962,17 @@ class HosDetector:
             smoothed = self._smoother.update(None)
         # 6b. precipitation seen by its fall (beyond the paper, hos/fall.py): round flakes
         # and specks that the HOS cannot orient, but that are found lower in the next frame
+        fall_points = (mom.area <= max_area) & ~structural & ~in_traffic
+        level = self._photometric.level if p.segmentation.method == "mog" else None
+        if dp.fall_light and level is not None:
+            # where the shade's correction missed the light by eq. 8's c, a speck may be the
+            # light's edge moving, not a flake (departure 37)
+            c = round(p.segmentation.photometric_c)
+            off = cv2.absdiff(level, np.full_like(level, 128)) >= c
+            off = cv2.dilate(off.view(np.uint8), _BOX3) > 0
+            fall_points &= ~_in_cells(off, float(seg.scale), mom.x0, mom.y0)
         fall_z, fall_px = self._fall_evidence(
-            state == State.OK and not hold,
-            h,
-            mom.x0,
-            mom.y0,
-            (mom.area <= max_area) & ~structural & ~in_traffic,
+            state == State.OK and not hold, h, mom.x0, mom.y0, fall_points
         )
         rain = (smoothed.rain or self._falling.value) and state == State.OK
 
