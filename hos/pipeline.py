@@ -963,14 +963,11 @@ class HosDetector:
         # 6b. precipitation seen by its fall (beyond the paper, hos/fall.py): round flakes
         # and specks that the HOS cannot orient, but that are found lower in the next frame
         fall_points = (mom.area <= max_area) & ~structural & ~in_traffic
-        level = self._photometric.level if p.segmentation.method == "mog" else None
-        if dp.fall_light and level is not None:
+        missed = self._light_missed(seg.scale) if dp.fall_light else None
+        if missed is not None:
             # where the shade's correction missed the light by eq. 8's c, a speck may be the
             # light's edge moving, not a flake (departure 37)
-            c = round(p.segmentation.photometric_c)
-            off = cv2.absdiff(level, np.full_like(level, 128)) >= c
-            off = cv2.dilate(off.view(np.uint8), _BOX3) > 0
-            fall_points &= ~_in_cells(off, float(seg.scale), mom.x0, mom.y0)
+            fall_points &= ~_in_cells(missed, float(seg.scale), mom.x0, mom.y0)
         fall_z, fall_px = self._fall_evidence(
             state == State.OK and not hold, h, mom.x0, mom.y0, fall_points
         )
@@ -1387,6 +1384,20 @@ class HosDetector:
             rain = np.zeros(n_labels, dtype=bool)
             rain[rain_idx] = True
             self._again.voted(rain[self._again_labels])
+
+    def _light_missed(self, scale: int) -> np.ndarray | None:
+        """(h // scale, w // scale) bool over eq. 8's blocks: where the frame's local level
+        is still off the background's by eq. 8's c or more while a shade is corrected
+        (departure 32's medians, which a streak does not move), and the blocks next to
+        them; None when eq. 8 was not re-levelled this frame."""
+        p = self.params
+        if p.segmentation.method != "mog" or self._photometric is None:
+            return None
+        level = self._photometric.level
+        if level is None:
+            return None
+        off = cv2.absdiff(level, np.full_like(level, 128)) >= round(p.segmentation.photometric_c)
+        return cv2.dilate(off.view(np.uint8), _BOX3) > 0
 
     def _fall_evidence(
         self, judged: bool, height: int, x: np.ndarray, y: np.ndarray, small: np.ndarray
