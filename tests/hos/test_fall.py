@@ -194,7 +194,7 @@ def _sky_edge_fall_z(fall_light: bool) -> float:
 
     from drivers.simulator.families import case_frames, sample_case
 
-    case = sample_case("tuning", 100, condition="clear", camera="static", frames=200)
+    case = sample_case("tuning", 100, condition="clear", camera="static", frames=135)
     case = replace(
         case,
         fps=10.0,
