@@ -1389,14 +1389,13 @@ class HosDetector:
         """(h // scale, w // scale) bool over eq. 8's blocks: where the frame's local level
         is still off the background's by eq. 8's c or more while a shade is corrected
         (departure 32's medians, which a streak does not move), and the blocks next to
-        them; None when eq. 8 was not re-levelled this frame."""
-        p = self.params
-        if p.segmentation.method != "mog" or self._photometric is None:
-            return None
-        level = self._photometric.level
+        them; None when eq. 8 was not re-levelled this frame (or is not run: the frame
+        difference rule)."""
+        level = self._photometric.level if self._photometric is not None else None
         if level is None:
             return None
-        off = cv2.absdiff(level, np.full_like(level, 128)) >= round(p.segmentation.photometric_c)
+        c = round(self.params.segmentation.photometric_c)
+        off = cv2.absdiff(level, np.full_like(level, 128)) >= c
         return cv2.dilate(off.view(np.uint8), _BOX3) > 0
 
     def _fall_evidence(
