@@ -1,0 +1,63 @@
+"""The stress sets (bench/stress_scenes.py): the scenes they draw, and one short run."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+
+import pytest
+
+from drivers.simulator.families import sample_case
+from tests.conftest import REPO
+
+_spec = importlib.util.spec_from_file_location("stress_scenes", REPO / "bench" / "stress_scenes.py")
+st = importlib.util.module_from_spec(_spec)
+sys.modules["stress_scenes"] = st
+_spec.loader.exec_module(st)
+
+
+@pytest.mark.parametrize(
+    ("name", "condition", "size", "speed"),
+    [
+        ("shade-720p10", "transition", (1280, 720), 160.0),
+        ("drizzle-shade", "drizzle", (640, 360), 80.0),
+        ("snow-shade", "snow", (640, 360), 80.0),
+    ],
+)
+def test_a_stress_case_is_the_tuning_scene_under_the_sets_settings(
+    name: str, condition: str, size: tuple[int, int], speed: float
+) -> None:
+    case = st.stress_case(name, 103)
+    base = sample_case("tuning", 103, condition=condition, camera="static", frames=st.FRAMES)
+    assert case.name == f"{base.name}-{name}"
+    assert (case.width, case.height, case.fps, case.h264_crf) == (*size, 10.0, None)
+    p = case.params
+    assert (p.fps, p.jpeg_quality, p.shade, p.shade_edge, p.shade_cover) == (
+        10.0,
+        60,
+        0.45,
+        0.2,
+        0.5,
+    )
+    assert p.shade_speed_px_s == pytest.approx(speed)
+    # the rest of the scene is the tuning generator's: its layout, seed and precipitation
+    assert case.seed == base.seed and case.rain_frames == base.rain_frames
+    assert p.rain == base.params.rain and p.snow == base.params.snow
+    if name == "shade-720p10":
+        assert (p.cars, p.wet_road) == (6, 0.99)
+    else:
+        assert (p.cars, p.wet_road) == (base.params.cars, base.params.wet_road)
+
+
+def test_an_unknown_set_is_refused() -> None:
+    with pytest.raises(ValueError, match="unknown stress set 'fog'"):
+        st.stress_case("fog", 100)
+    with pytest.raises(SystemExit):
+        st.main(["fog"])
+
+
+def test_a_short_run_prints_each_scene_and_the_totals(capsys) -> None:
+    assert st.main(["snow-shade", "--scenes", "100:101", "--frames", "100", "--jobs", "1"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("tuning-100-snow-static-snow-shade ")
+    assert out[-1].startswith("snow-shade: 1 scenes, false 0/0 clear frames, 0 false onsets")
