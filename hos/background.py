@@ -240,8 +240,10 @@ class PhotometricRule:
         self._background_u8: np.ndarray | None = None
         self._band = 0
         self._lines: np.ndarray | None = None  # line_offsets of departure 36
-        #: the last frame's blocks' level (:func:`relevel_blocks`), None when not re-levelled
+        #: the last frame's blocks' level (:func:`relevel_blocks`) as applied (weighted by the
+        #: cells re-levelled), and as seen over the whole view; None when not re-levelled
         self.level: np.ndarray | None = None
+        self.seen_level: np.ndarray | None = None
 
     @property
     def background(self) -> np.ndarray | None:
@@ -279,7 +281,7 @@ class PhotometricRule:
         correction missed, departure 32), weighted by ``relevel_mask`` (one float32 weight
         a block, 1 where to re-level; None: everywhere).
         """
-        self.level = None
+        self.level = self.seen_level = None
         if self._background is None or self._background.shape != gray.shape:
             self._background = gray.astype(np.float32)
             self._background_u8 = gray.copy()
@@ -292,7 +294,8 @@ class PhotometricRule:
         if neighbourhood:
             reference = neighbourhood_background(reference)
         if relevel > 0:
-            self.level = relevel_blocks(gray, reference, relevel, relevel_mask)
+            self.seen_level = local_level(gray, reference, relevel)
+            self.level = weighted_level(self.seen_level, relevel_mask)
             reference = relevel_apply(reference, self.level, relevel)
         if self._compiled:
             index, _ = _jit.photometric_candidates(gray, fg, reference, c=c)
@@ -356,6 +359,20 @@ def relevel_blocks(
 ) -> np.ndarray:
     """The blocks' level of :func:`relevelled`: (h // scale, w // scale) uint8, the median
     of ``gray - reference`` over 5 x 5 blocks plus 128, weighted by ``where``."""
+    return weighted_level(local_level(gray, reference, scale), where)
+
+
+def weighted_level(level: np.ndarray, where: np.ndarray | None) -> np.ndarray:
+    """``level`` (:func:`local_level`) weighted by ``where`` (one float32 weight a block;
+    None: ``level`` itself). On the blocks: cheap."""
+    if where is None:
+        return level
+    return cv2.convertScaleAbs((level.astype(np.float32) - 128.0) * where + 128.0)
+
+
+def local_level(gray: np.ndarray, reference: np.ndarray, scale: int) -> np.ndarray:
+    """(h // scale, w // scale) uint8: the median of ``gray - reference`` over 5 x 5 blocks
+    of ``scale`` x ``scale`` pixels (area means), plus 128."""
     h, w = gray.shape
     hs, ws = max(h // scale, 1), max(w // scale, 1)
     if scale > 1:
@@ -366,10 +383,7 @@ def relevel_blocks(
     else:
         small = reference
     # the level, offset by 128 grey levels in uint8 (differences past 127 are not a shade's)
-    level = cv2.medianBlur(cv2.addWeighted(gray, 1.0, small, -1.0, 128.0, dtype=cv2.CV_8U), 5)
-    if where is not None:  # on the blocks: cheap
-        level = cv2.convertScaleAbs((level.astype(np.float32) - 128.0) * where + 128.0)
-    return level
+    return cv2.medianBlur(cv2.addWeighted(gray, 1.0, small, -1.0, 128.0, dtype=cv2.CV_8U), 5)
 
 
 def relevel_apply(reference: np.ndarray, level: np.ndarray, scale: int) -> np.ndarray:

@@ -254,9 +254,11 @@ class DecisionParams:
     fall_radius: float = 9.0
     #: Beyond the paper (docs/method.md, departure 37): while a cloud's shade is corrected,
     #: the small blobs in the blocks where the frame's local level is still off the
-    #: background's by eq. 8's c or more (departure 32's medians), or next to them, are not
-    #: paired: a shade's edge sweeping a plain sky leaves pieces along it that move with it,
-    #: down where it slopes. False: every small blob is paired.
+    #: background's by eq. 8's c or more (departure 32's medians), or next to them, do not
+    #: start precipitation by their fall: a shade's edge sweeping a plain sky leaves pieces
+    #: along it that move with it, down where it slopes. Outside the cells eq. 8 re-levels,
+    #: they still tell snow from rain once precipitation is seen. False: every small blob
+    #: is paired.
     fall_light: bool = True
     #: Beyond the paper: a frame with fewer than ``min_blobs`` blobs is fitted with the HOS of
     #: the frames before it added, up to this many frames in all, until ``min_blobs`` are

@@ -30,6 +30,7 @@ precipitation type (``analyse``).
 
 from __future__ import annotations
 
+import copy
 import itertools
 import math
 from collections import deque
@@ -425,6 +426,11 @@ class HosDetector:
         self._again: FoundAgain | None = None
         dp = self.params.decision
         self._falling = Dwell(dp.dwell_on_frames, dp.dwell_off_frames)
+        # the same for the type: blobs where the light is off outside the cells re-levelled
+        # still tell snow from rain (departure 37)
+        self._fall_typing: FallMeter | None = None
+        self._falling_typing = Dwell(dp.dwell_on_frames, dp.dwell_off_frames)
+        self._typing_apart = False
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -963,14 +969,25 @@ class HosDetector:
         # 6b. precipitation seen by its fall (beyond the paper, hos/fall.py): round flakes
         # and specks that the HOS cannot orient, but that are found lower in the next frame
         fall_points = (mom.area <= max_area) & ~structural & ~in_traffic
-        missed = self._light_missed(seg.scale) if dp.fall_light else None
-        if missed is not None:
+        judged = state == State.OK and not hold
+        applied, seen = self._light_missed(seg.scale) if dp.fall_light else (None, None)
+        if applied is None:
+            # the type's meter is the verdict's (and is forked from it when they part)
+            self._typing_apart = False
+        else:
             # where the shade's correction missed the light by eq. 8's c, a speck may be the
-            # light's edge moving, not a flake (departure 37)
-            fall_points &= ~_in_cells(missed, float(seg.scale), mom.x0, mom.y0)
-        fall_z, fall_px = self._fall_evidence(
-            state == State.OK and not hold, h, mom.x0, mom.y0, fall_points
-        )
+            # light's edge moving, not a flake (departure 37): not paired where eq. 8 was
+            # re-levelled by the light; and not to start precipitation where the light is
+            # off anywhere (a plain sky outside the cells re-levelled), though it still tells
+            # snow from rain there, once precipitation is seen
+            if not self._typing_apart:
+                self._fall_typing = copy.deepcopy(self._fall)
+                self._falling_typing = copy.deepcopy(self._falling)
+                self._typing_apart = True
+            fall_points &= ~_in_cells(applied, float(seg.scale), mom.x0, mom.y0)
+            self._fall_evidence(judged, h, mom.x0, mom.y0, fall_points, typing=True)
+            fall_points &= ~_in_cells(seen, float(seg.scale), mom.x0, mom.y0)
+        fall_z, fall_px = self._fall_evidence(judged, h, mom.x0, mom.y0, fall_points)
         rain = (smoothed.rain or self._falling.value) and state == State.OK
 
         # 7. rain pixels
@@ -1010,7 +1027,8 @@ class HosDetector:
             reference_height=self._ptype.params.reference_height,
         )
         vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
-        if self._falling.value and state == State.OK:
+        typing_falls = self._falling_typing.value if self._typing_apart else self._falling.value
+        if typing_falls and state == State.OK:
             # seen falling a few pixels a frame: flakes, whatever their streaks look like (a
             # drop falls further between two frames than its streak is long, and is not found
             # again lower down; docs/method.md, "Precipitation type")
@@ -1385,39 +1403,58 @@ class HosDetector:
             rain[rain_idx] = True
             self._again.voted(rain[self._again_labels])
 
-    def _light_missed(self, scale: int) -> np.ndarray | None:
-        """(h // scale, w // scale) bool over eq. 8's blocks: where the frame's local level
-        is still off the background's by eq. 8's c or more while a shade is corrected
+    def _light_missed(self, scale: int) -> tuple[np.ndarray | None, np.ndarray | None]:
+        """Two (h // scale, w // scale) bool over eq. 8's blocks: where the frame's local
+        level is off the background's by eq. 8's c or more while a shade is corrected
         (departure 32's medians, which a streak does not move), and the blocks next to
-        them; None when eq. 8 was not re-levelled this frame (or is not run: the frame
-        difference rule)."""
-        level = self._photometric.level if self._photometric is not None else None
-        if level is None:
-            return None
+        them: as applied (in the cells re-levelled) and as seen (anywhere in the view);
+        (None, None) when eq. 8 was not re-levelled this frame (or is not run: the frame
+        difference rule). ``scale``: the blocks' side, pixels."""
+        rule = self._photometric
+        if rule is None or rule.level is None or rule.seen_level is None:
+            return None, None
         c = round(self.params.segmentation.photometric_c)
-        off = cv2.absdiff(level, np.full_like(level, 128)) >= c
-        return cv2.dilate(off.view(np.uint8), _BOX3) > 0
+        out = []
+        for level in (rule.level, rule.seen_level):
+            off = cv2.absdiff(level, np.full_like(level, 128)) >= c
+            out.append(cv2.dilate(off.view(np.uint8), _BOX3) > 0)
+        return out[0], out[1]
 
     def _fall_evidence(
-        self, judged: bool, height: int, x: np.ndarray, y: np.ndarray, small: np.ndarray
+        self,
+        judged: bool,
+        height: int,
+        x: np.ndarray,
+        y: np.ndarray,
+        small: np.ndarray,
+        *,
+        typing: bool = False,
     ) -> tuple[float, float]:
         """Step 6b: update the fall meter with this frame's small blobs (``small``, the
-        caller's mask over the labels; label 0 is cleared in it) and the fall verdict
+        caller's mask over the labels; label 0, the background, is left out) and the fall verdict
         (``_falling``, with the decision's dwell); ``(z, fall_px)``. A frame that cannot be
-        judged restarts the meter: the next one is not paired with the last."""
+        judged restarts the meter: the next one is not paired with the last. ``typing``:
+        the type's meter and verdict instead (``_falling_typing``, departure 37)."""
         dp = self.params.decision
         if dp.fall_z <= 0:
             return 0.0, math.nan
         radius = max(8.0, dp.fall_radius * height / self.params.segmentation.size_reference_height)
-        if self._fall is None or self._fall.radius != radius:
-            self._fall = FallMeter(window=dp.fall_frames, radius=radius, vertical=dp.vertical)
+        meter = self._fall_typing if typing else self._fall
+        if meter is None or meter.radius != radius:
+            meter = FallMeter(window=dp.fall_frames, radius=radius, vertical=dp.vertical)
+            if typing:
+                self._fall_typing = meter
+            else:
+                self._fall = meter
         if not judged:
-            self._fall.reset()
+            meter.reset()
             return 0.0, math.nan
+        small = small.copy()
         small[0] = False  # the background label
-        z, fall_px = self._fall.update(np.column_stack((x[small], y[small])))
+        z, fall_px = meter.update(np.column_stack((x[small], y[small])))
         # on at fall_z, off under three quarters of it; each held for the dwell frames
-        falling = self._falling.update(z >= (0.75 if self._falling.value else 1.0) * dp.fall_z)
+        dwell = self._falling_typing if typing else self._falling
+        falling = dwell.update(z >= (0.75 if dwell.value else 1.0) * dp.fall_z)
         return z, fall_px if falling else math.nan
 
     def _merge_correction(

@@ -185,16 +185,16 @@ def test_streaks_seen_falling_are_snow_and_the_same_streaks_anew_are_rain(streak
     assert np.mean([r.precipitation_type == "rain" for r in anew]) >= 0.95
 
 
-def _sky_edge_fall_z(fall_light: bool) -> float:
+def _sky_edge_fall_z(fall_light: bool, scene: int) -> float:
     """The highest fall z of a clear street at 640x360, 10 fps, JPEG 60, no vehicle, under a
     cloud's shade (0.45, a sharp edge) sweeping right at 80 px/s: over the plain sky its
     sloping edge leaves pieces that move with it, across the edge's slope (the tuning
-    generator's scene 100, drawn again with these settings)."""
+    generator's ``scene``, drawn again with these settings)."""
     from dataclasses import replace
 
     from drivers.simulator.families import case_frames, sample_case
 
-    case = sample_case("tuning", 100, condition="clear", camera="static", frames=135)
+    case = sample_case("tuning", scene, condition="clear", camera="static", frames=135)
     case = replace(
         case,
         fps=10.0,
@@ -221,11 +221,14 @@ def _sky_edge_fall_z(fall_light: bool) -> float:
     return max(r.fall_z for r in judged)
 
 
-def test_a_shades_edge_over_the_sky_is_not_seen_falling() -> None:
+@pytest.mark.parametrize(("scene", "shown"), [(100, 4.5), (109, 3.0)])
+def test_a_shades_edge_over_the_sky_is_not_seen_falling(scene: int, shown: float) -> None:
     """``decision.fall_light``: the pieces the sweeping edge leaves lie where the frame's
-    level is off the background's (departure 32's blocks) and are not paired. Without the
-    rule the edge reads as a fall (z 6.0 here, 0 with it; at 1280x720 over 8, so that the
-    camera said snow on a clear day)."""
-    without = _sky_edge_fall_z(False)
-    assert without >= 4.5  # the scene shows what the rule is for
-    assert _sky_edge_fall_z(True) <= min(3.0, 0.5 * without)
+    level is off the background's (departure 32's blocks) and do not start precipitation.
+    Without the rule the edge reads as a fall (z 6.0 in scene 100, 3.7 in 109; at 1280x720
+    over 8, so that the camera said snow on a clear day); with it, 0 and 1.0. In scene 109
+    the edge crosses a sky whose cells are not re-levelled: read only in those cells, the
+    rule left z at 4.2 (the type's meter still reads it so, docs/method.md, 37)."""
+    without = _sky_edge_fall_z(False, scene)
+    assert without >= shown  # the scene shows what the rule is for
+    assert _sky_edge_fall_z(True, scene) <= min(3.0, 0.5 * without)

@@ -319,6 +319,12 @@ def test_eq8_is_relevelled_only_where_the_mask_says(compiled: bool) -> None:
     assert cand[:, 250:400][~streaks[:, 250:400]].mean() < 0.01
     assert cand[:, 450:][~streaks[:, 450:]].mean() > 0.5
     assert cand[streaks].mean() > 0.95
+    # the level applied is the mask's; the level seen (departure 37's) is the whole view's
+    assert np.all(rule.level[:, 230:] == 128)
+    assert np.median(rule.seen_level[:, 230:].astype(int) - 128) >= 3  # the ramp's residue
+    np.testing.assert_array_equal(rule.level[:, :200], rule.seen_level[:, :200])
+    rule.candidates(frame, everything)  # not re-levelled: no level either way
+    assert rule.level is None and rule.seen_level is None
 
 
 @pytest.mark.parametrize("size", [(360, 640), (361, 643), (240, 320), (1081, 1921)])
