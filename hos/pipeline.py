@@ -66,7 +66,7 @@ from .histogram import hos_histogram
 from .mixture import fit_mixture
 from .moments import orientation_uncertainty
 from .motion import exposure_gain, global_translation, reduce
-from .params import DetectorParams
+from .params import DecisionParams, DetectorParams
 from .ptype import SNOW, PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .shade import apply_field, shade_field, upsample
@@ -422,15 +422,12 @@ class HosDetector:
         # beyond the paper: rain or snow (hos/ptype.py)
         self._ptype = PrecipitationTypeVote(self.params.precipitation_type)
         # beyond the paper: precipitation seen by its fall (hos/fall.py); made per frame size
-        self._fall: FallMeter | None = None
         self._again: FoundAgain | None = None
-        dp = self.params.decision
-        self._falling = Dwell(dp.dwell_on_frames, dp.dwell_off_frames)
-        # the same for the type: blobs where the light is off outside the cells re-levelled
-        # still tell snow from rain (departure 37)
-        self._fall_typing: FallMeter | None = None
-        self._falling_typing = Dwell(dp.dwell_on_frames, dp.dwell_off_frames)
-        self._typing_apart = False
+        self._fall = _FallVerdict(self.params.decision)
+        # the type's own, while it parts from the verdict's: blobs where the light is off
+        # outside the cells re-levelled still tell snow from rain (departure 37); None: the
+        # verdict's is the type's
+        self._fall_type: _FallVerdict | None = None
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -971,24 +968,23 @@ class HosDetector:
         fall_points = (mom.area <= max_area) & ~structural & ~in_traffic
         judged = state == State.OK and not hold
         applied, seen = self._light_missed(seg.scale) if dp.fall_light else (None, None)
+        radius = max(8.0, dp.fall_radius * h / p.segmentation.size_reference_height)
         if applied is None:
             # the type's meter is the verdict's (and is forked from it when they part)
-            self._typing_apart = False
+            self._fall_type = None
         else:
             # where the shade's correction missed the light by eq. 8's c, a speck may be the
             # light's edge moving, not a flake (departure 37): not paired where eq. 8 was
             # re-levelled by the light; and not to start precipitation where the light is
             # off anywhere (a plain sky outside the cells re-levelled), though it still tells
             # snow from rain there, once precipitation is seen
-            if not self._typing_apart:
-                self._fall_typing = copy.deepcopy(self._fall)
-                self._falling_typing = copy.deepcopy(self._falling)
-                self._typing_apart = True
+            if self._fall_type is None:
+                self._fall_type = self._fall.fork()
             fall_points &= ~_in_cells(applied, float(seg.scale), mom.x0, mom.y0)
-            self._fall_evidence(judged, h, mom.x0, mom.y0, fall_points, typing=True)
+            self._fall_type.update(judged, radius, mom.x0, mom.y0, fall_points)
             fall_points &= ~_in_cells(seen, float(seg.scale), mom.x0, mom.y0)
-        fall_z, fall_px = self._fall_evidence(judged, h, mom.x0, mom.y0, fall_points)
-        rain = (smoothed.rain or self._falling.value) and state == State.OK
+        fall_z, fall_px = self._fall.update(judged, radius, mom.x0, mom.y0, fall_points)
+        rain = (smoothed.rain or self._fall.falling) and state == State.OK
 
         # 7. rain pixels
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
@@ -1027,8 +1023,8 @@ class HosDetector:
             reference_height=self._ptype.params.reference_height,
         )
         vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
-        typing_falls = self._falling_typing.value if self._typing_apart else self._falling.value
-        if typing_falls and state == State.OK:
+        typing = self._fall if self._fall_type is None else self._fall_type
+        if typing.falling and state == State.OK:
             # seen falling a few pixels a frame: flakes, whatever their streaks look like (a
             # drop falls further between two frames than its streak is long, and is not found
             # again lower down; docs/method.md, "Precipitation type")
@@ -1420,43 +1416,6 @@ class HosDetector:
             out.append(cv2.dilate(off.view(np.uint8), _BOX3) > 0)
         return out[0], out[1]
 
-    def _fall_evidence(
-        self,
-        judged: bool,
-        height: int,
-        x: np.ndarray,
-        y: np.ndarray,
-        small: np.ndarray,
-        *,
-        typing: bool = False,
-    ) -> tuple[float, float]:
-        """Step 6b: update the fall meter with this frame's small blobs (``small``, the
-        caller's mask over the labels; label 0, the background, is left out) and the fall verdict
-        (``_falling``, with the decision's dwell); ``(z, fall_px)``. A frame that cannot be
-        judged restarts the meter: the next one is not paired with the last. ``typing``:
-        the type's meter and verdict instead (``_falling_typing``, departure 37)."""
-        dp = self.params.decision
-        if dp.fall_z <= 0:
-            return 0.0, math.nan
-        radius = max(8.0, dp.fall_radius * height / self.params.segmentation.size_reference_height)
-        meter = self._fall_typing if typing else self._fall
-        if meter is None or meter.radius != radius:
-            meter = FallMeter(window=dp.fall_frames, radius=radius, vertical=dp.vertical)
-            if typing:
-                self._fall_typing = meter
-            else:
-                self._fall = meter
-        if not judged:
-            meter.reset()
-            return 0.0, math.nan
-        small = small.copy()
-        small[0] = False  # the background label
-        z, fall_px = meter.update(np.column_stack((x[small], y[small])))
-        # on at fall_z, off under three quarters of it; each held for the dwell frames
-        dwell = self._falling_typing if typing else self._falling
-        falling = dwell.update(z >= (0.75 if dwell.value else 1.0) * dp.fall_z)
-        return z, fall_px if falling else math.nan
-
     def _merge_correction(
         self, area: np.ndarray, accepted: np.ndarray, excluded: np.ndarray, max_area: float
     ) -> float:
@@ -1500,3 +1459,44 @@ def _as_gray(frame: np.ndarray) -> np.ndarray:
     if frame.dtype != np.uint8:
         raise ValueError(f"expected uint8 pixels, got {frame.dtype}")
     return np.ascontiguousarray(frame)
+
+
+class _FallVerdict:
+    """Step 6b's state: the fall meter (hos/fall.py) and its verdict, on at ``fall_z`` and
+    off under three quarters of it, each held for the decision's dwell frames."""
+
+    def __init__(self, dp: DecisionParams) -> None:
+        self._dp = dp
+        self.meter: FallMeter | None = None  # made per frame size (its pairing radius)
+        self.dwell = Dwell(dp.dwell_on_frames, dp.dwell_off_frames)
+
+    def fork(self) -> _FallVerdict:
+        """An independent copy, from here on fed apart."""
+        twin = _FallVerdict(self._dp)
+        twin.meter, twin.dwell = copy.deepcopy(self.meter), copy.deepcopy(self.dwell)
+        return twin
+
+    @property
+    def falling(self) -> bool:
+        """The verdict: precipitation seen falling."""
+        return self.dwell.value
+
+    def update(
+        self, judged: bool, radius: float, x: np.ndarray, y: np.ndarray, small: np.ndarray
+    ) -> tuple[float, float]:
+        """Add a frame's small blobs (``small``, a mask over the labels; label 0, the
+        background, is left out); ``(z, fall_px)``, ``fall_px`` NaN unless falling. A frame
+        that cannot be judged restarts the meter: the next one is not paired with the last."""
+        dp = self._dp
+        if dp.fall_z <= 0:
+            return 0.0, math.nan
+        if self.meter is None or self.meter.radius != radius:
+            self.meter = FallMeter(window=dp.fall_frames, radius=radius, vertical=dp.vertical)
+        if not judged:
+            self.meter.reset()
+            return 0.0, math.nan
+        small = small.copy()
+        small[0] = False
+        z, fall_px = self.meter.update(np.column_stack((x[small], y[small])))
+        falling = self.dwell.update(z >= (0.75 if self.dwell.value else 1.0) * dp.fall_z)
+        return z, fall_px if falling else math.nan
