@@ -3,6 +3,10 @@ it was never tuned on, scored against per-frame truth, one table per split.
 
     .venv/bin/python bench/eval_scenes.py [--split tuning|evaluation|both] [--per-cell N]
                                           [--frames N] [--jobs N] [--markdown]
+                                          [--conditions drizzle,light] [--scenes]
+
+``--conditions`` scores only those conditions' scenes (the same scenes as in the full run);
+``--scenes`` adds a table of the scenes one by one, to find where a row's misses are.
 
 The scenes come from :mod:`drivers.simulator.families`: the tuning split is where a
 parameter may be set; the evaluation split (other seeds, sizes, frame rates, compression,
@@ -27,7 +31,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from drivers.simulator.families import SPLITS, SceneCase, case_frames, sample_cases
+from drivers.simulator.families import CONDITIONS, SPLITS, SceneCase, case_frames, sample_cases
 from hos import DetectorParams, HosDetector, State
 
 #: The decision's threshold on the smoothed Pi (eq. 23's weight), for the clear frames' margin.
@@ -65,6 +69,10 @@ class CaseResult:
     density: float
     fps: float
     size: tuple[int, int] = (0, 0)
+    #: how the frames were delivered ("H.264 CRF 26", "JPEG 60", "none") and the cloud
+    #: shade's depth (the share of the light it takes; 0: none)
+    codec: str = ""
+    shade: float = 0.0
     judged_clear: int = 0
     false_frames: int = 0
     false_onsets: int = 0
@@ -162,7 +170,14 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
     started = time.perf_counter()
     det = HosDetector(detector_params(overrides))
     res = CaseResult(
-        case.name, case.condition, case.camera, case.density, case.fps, (case.width, case.height)
+        case.name,
+        case.condition,
+        case.camera,
+        case.density,
+        case.fps,
+        (case.width, case.height),
+        codec=codec_name(case),
+        shade=float(case.params.shade),
     )
     verdicts: list[bool] = []
     truths: list[bool] = []
@@ -240,6 +255,67 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
 
 
 _SEG = DetectorParams().segmentation  # the defaults that define "visible"
+
+
+def codec_name(case: SceneCase) -> str:
+    """How ``case``'s frames are delivered: "H.264 CRF n", "JPEG q" or "none"."""
+    if case.h264_crf is not None:
+        return f"H.264 CRF {case.h264_crf}"
+    if case.params.jpeg_quality is not None:
+        return f"JPEG {case.params.jpeg_quality}"
+    return "none"
+
+
+def select_conditions(cases: list[SceneCase], conditions: str | None) -> list[SceneCase]:
+    """The cases of the comma-separated ``conditions`` (all when None); ValueError naming
+    the known conditions for one that is not."""
+    if not conditions:
+        return cases
+    wanted = [c.strip() for c in conditions.split(",") if c.strip()]
+    unknown = sorted(set(wanted) - set(CONDITIONS))
+    if unknown or not wanted:
+        raise ValueError(
+            f"unknown condition(s) {', '.join(unknown) or repr(conditions)}; "
+            f"choose from {', '.join(CONDITIONS)}"
+        )
+    return [c for c in cases if c.condition in wanted]
+
+
+SCENE_HEADER = [
+    "scene",
+    "frame",
+    "fps",
+    "codec",
+    "shade",
+    "false rain",
+    "detected",
+    "unstable",
+    "typed (truth: answer frames)",
+]
+
+
+def scene_rows(results: list[CaseResult]) -> list[list[str]]:
+    """One row a scene: its settings, its false frames of the clear ones judged, the
+    precipitation frames it saw of those scored, and its types."""
+    rows = []
+    for r in results:
+        typed = ", ".join(
+            f"{truth}: {answer} {n}" for (truth, answer), n in sorted(r.types.items()) if n
+        )
+        rows.append(
+            [
+                r.name,
+                f"{r.size[0]}x{r.size[1]}",
+                f"{r.fps:g}",
+                r.codec or "-",
+                f"{r.shade:.2f}" if r.shade > 0 else "-",
+                f"{r.false_frames}/{r.judged_clear}" if r.judged_clear else "-",
+                f"{r.detected}/{r.wet}" if r.wet else "-",
+                f"{r.unstable}/{r.judged_still}" if r.judged_still else "-",
+                typed or "-",
+            ]
+        )
+    return rows
 
 
 def _dry_twin(case: SceneCase) -> SceneCase | None:
@@ -467,7 +543,14 @@ def add_set_option(ap: argparse.ArgumentParser) -> None:
     )
 
 
-def render(split: str, results: list[CaseResult], seconds: float, *, markdown: bool) -> str:
+def render(
+    split: str,
+    results: list[CaseResult],
+    seconds: float,
+    *,
+    markdown: bool,
+    scenes: bool = False,
+) -> str:
     rows, totals = table(results)
     lines = [f"## {split} split: {len(results)} scenes, {seconds:.0f} s"]
     lines += [format_table(HEADER, rows, markdown=markdown), ""]
@@ -481,6 +564,8 @@ def render(split: str, results: list[CaseResult], seconds: float, *, markdown: b
         lines.append(f"- {key}: {value:.2f}{verdict}")
     lines += ["", "camera_precipitation_type (rows: truth; columns: the camera's answer):"]
     lines.append(format_table(["truth (frames)", *TYPES], confusion(results), markdown=markdown))
+    if scenes and results:
+        lines += ["", "scenes:", format_table(SCENE_HEADER, scene_rows(results), markdown=markdown)]
     return "\n".join(lines)
 
 
@@ -491,17 +576,30 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--frames", type=int, default=375, help="frames per scene")
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--markdown", action="store_true")
+    ap.add_argument(
+        "--conditions",
+        metavar="LIST",
+        help=f"comma-separated conditions to score, of {','.join(CONDITIONS)} (default: all)",
+    )
+    ap.add_argument("--scenes", action="store_true", help="also a table of the scenes one by one")
     add_set_option(ap)
     args = ap.parse_args(argv)
+    try:
+        select_conditions([], args.conditions)
+    except ValueError as e:
+        ap.error(str(e))
     splits = SPLITS if args.split == "both" else (args.split,)
     total = time.perf_counter()
     for split in splits:
         started = time.perf_counter()
-        cases = sample_cases(split, per_cell=args.per_cell, frames=args.frames)
+        cases = select_conditions(
+            sample_cases(split, per_cell=args.per_cell, frames=args.frames), args.conditions
+        )
         with ProcessPoolExecutor(args.jobs) as pool:
             results = list(pool.map(score, cases, [tuple(args.set)] * len(cases)))
         _patch_results(results)
-        print(render(split, results, time.perf_counter() - started, markdown=args.markdown))
+        seconds = time.perf_counter() - started
+        print(render(split, results, seconds, markdown=args.markdown, scenes=args.scenes))
         print(flush=True)
     print(f"make eval: {time.perf_counter() - total:.0f} s in all")
     return 0

@@ -258,3 +258,46 @@ def test_overrides_are_literals_or_bare_words() -> None:
         ev.detector_params(("robustness.shade_relevel=off",))
     with pytest.raises(ValueError, match="min_blobs"):
         ev.detector_params(("decision.min_blobs=many",))
+
+
+def test_conditions_select_the_same_scenes_as_the_full_run() -> None:
+    cases = sample_cases("tuning", per_cell=2, frames=50)
+    faint = ev.select_conditions(cases, "drizzle, light")
+    assert {c.condition for c in faint} == {"drizzle", "light"}
+    assert [c.name for c in faint] == [c.name for c in cases if c.condition in ("drizzle", "light")]
+    assert ev.select_conditions(cases, None) == cases
+    for bad in ("rain", "drizzle,hail", ","):
+        with pytest.raises(ValueError, match="choose from clear"):
+            ev.select_conditions(cases, bad)
+    with pytest.raises(SystemExit):
+        ev.main(["--conditions", "hail"])
+
+
+def test_the_scenes_table_says_where_a_rows_misses_are() -> None:
+    case = sample_case("tuning", 9, condition="drizzle", camera="static", frames=50)
+    jpeg = replace(case, h264_crf=None, params=replace(case.params, jpeg_quality=60))
+    assert ev.codec_name(jpeg) == "JPEG 60"
+    assert ev.codec_name(replace(jpeg, h264_crf=26)) == "H.264 CRF 26"
+    assert ev.codec_name(replace(jpeg, params=replace(jpeg.params, jpeg_quality=None))) == "none"
+    a = ev.CaseResult("a", "drizzle", "static", 1.0, 20.0, (1280, 720), "H.264 CRF 26", 0.52)
+    a.wet, a.detected, a.judged_still = 285, 16, 285
+    a.types.update({("rain", "unknown"): 269, ("rain", "rain"): 16})
+    b = ev.CaseResult("b", "clear", "wind", 0.0, 10.0, (320, 240), "none", 0.0)
+    b.judged_clear = b.judged_still = 200
+    b.types.update({("clear", "unknown"): 200})
+    rows = ev.scene_rows([a, b])
+    assert rows[0] == [
+        "a",
+        "1280x720",
+        "20",
+        "H.264 CRF 26",
+        "0.52",
+        "-",
+        "16/285",
+        "0/285",
+        "rain: rain 16, rain: unknown 269",
+    ]
+    assert rows[1][4:7] == ["-", "0/200", "-"]
+    assert "scenes:" not in ev.render("tuning", [a, b], 1.0, markdown=False)
+    text = ev.render("tuning", [a, b], 1.0, markdown=True, scenes=True)
+    assert "| a | 1280x720 | 20 | H.264 CRF 26 | 0.52 | - | 16/285 |" in text
