@@ -966,6 +966,7 @@ class HosDetector:
         # 6b. precipitation seen by its fall (beyond the paper, hos/fall.py): round flakes
         # and specks that the HOS cannot orient, but that are found lower in the next frame
         fall_points = (mom.area <= max_area) & ~structural & ~in_traffic
+        fall_points[0] = False  # the background label
         judged = state == State.OK and not hold
         applied, seen = self._light_missed(seg.scale) if dp.fall_light else (None, None)
         radius = max(8.0, dp.fall_radius * h / p.segmentation.size_reference_height)
@@ -1484,9 +1485,9 @@ class _FallVerdict:
     def update(
         self, judged: bool, radius: float, x: np.ndarray, y: np.ndarray, small: np.ndarray
     ) -> tuple[float, float]:
-        """Add a frame's small blobs (``small``, a mask over the labels; label 0, the
-        background, is left out); ``(z, fall_px)``, ``fall_px`` NaN unless falling. A frame
-        that cannot be judged restarts the meter: the next one is not paired with the last."""
+        """Add a frame's small blobs (``small``, a mask over the labels, False at label 0,
+        the background); ``(z, fall_px)``, ``fall_px`` NaN unless falling. A frame that
+        cannot be judged restarts the meter: the next one is not paired with the last."""
         dp = self._dp
         if dp.fall_z <= 0:
             return 0.0, math.nan
@@ -1495,8 +1496,6 @@ class _FallVerdict:
         if not judged:
             self.meter.reset()
             return 0.0, math.nan
-        small = small.copy()
-        small[0] = False
         z, fall_px = self.meter.update(np.column_stack((x[small], y[small])))
         falling = self.dwell.update(z >= (0.75 if self.dwell.value else 1.0) * dp.fall_z)
         return z, fall_px if falling else math.nan
