@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from .precipitation import SnowParams, StreakParams
-from .scene import Scene, SceneParams
+from .scene import Scene, SceneParams, view_centre_range
 
 __all__ = [
     "CONDITIONS",
@@ -75,6 +75,15 @@ _RANGES = {
         "shade_speed": (20.0, 80.0),
         "shade_cover": (0.3, 0.6),
         "shade_edge": (0.2, 0.6),
+        # the camera's view of the street (SceneParams.view_*): its chance, the zoom, the roll
+        # either way (degrees), the chance of a mirrored street; the aim (view_centre) is
+        # drawn anywhere the view stays on the street; and a soft lens: its chance, its blur
+        "view_chance": 0.6,
+        "zoom": (1.0, 1.3),
+        "roll": 2.0,
+        "mirror": 0.5,
+        "blur_chance": 0.3,
+        "blur": (0.3, 1.0),
         "seed0": 10_000,
     },
     "evaluation": {
@@ -100,6 +109,12 @@ _RANGES = {
         "shade_speed": (30.0, 120.0),
         "shade_cover": (0.3, 0.6),
         "shade_edge": (0.1, 0.5),
+        "view_chance": 0.7,
+        "zoom": (1.0, 1.6),
+        "roll": 4.0,
+        "mirror": 0.5,
+        "blur_chance": 0.4,
+        "blur": (0.5, 1.5),
         "seed0": 50_000,
     },
 }
@@ -228,6 +243,13 @@ def sample_case(
             shade_cover=float(sky.uniform(*r["shade_cover"])),
             shade_edge=float(sky.uniform(*r["shade_edge"])),
         )
+    # ... and so do the camera's view of the street and its lens
+    params = _view(
+        params,
+        r,
+        width / height,
+        np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 5]),
+    )
     density = 0.0
     rain_frames = None
     mu = float(rng.uniform(70.0, 110.0))
@@ -291,6 +313,28 @@ def sample_case(
         rain_frames=rain_frames,
         h264_crf=None if h264_crf is None else int(h264_crf),
     )
+
+
+def _view(params: SceneParams, r: dict, aspect: float, rng: np.random.Generator) -> SceneParams:
+    """``params`` with the camera's view and lens drawn from the split's ranges ``r``: the
+    street magnified, aimed (tilted, panned), rolled and mirrored, on ``view_chance`` of the
+    scenes; a soft lens on ``blur_chance`` of them."""
+    if rng.random() < float(r["view_chance"]):
+        roll = float(rng.uniform(-r["roll"], r["roll"]))
+        a = math.radians(abs(roll))
+        # the least zoom that keeps a rolled view on the street
+        least = max(math.cos(a) + math.sin(a) * k for k in (aspect, 1.0 / aspect))
+        lo, hi = r["zoom"]
+        zoom = float(rng.uniform(max(lo, least), max(hi, least)))
+        (x0, x1), (y0, y1) = view_centre_range(zoom, roll, (aspect,))
+        centre = (float(rng.uniform(x0, x1)), float(rng.uniform(y0, y1)))
+        mirror = bool(rng.random() < float(r["mirror"]))
+        params = replace(
+            params, view_zoom=zoom, view_centre=centre, view_roll_deg=roll, view_mirror=mirror
+        )
+    if rng.random() < float(r["blur_chance"]):
+        params = replace(params, lens_blur_px=float(rng.uniform(*r["blur"])))
+    return params
 
 
 def sample_cases(split: str, *, per_cell: int = 1, frames: int = 300) -> list[SceneCase]:

@@ -80,6 +80,16 @@ class SceneParams:
         throw spray behind their wheels and their lights are mirrored in the road as vertical
         bright streaks under them (``street._draw_wet_road``); 0: never
     wet_always : the road is wet (``wet_road``) even in clear weather, as after rain
+    view_zoom, view_centre, view_roll_deg, view_mirror : the camera's view of the street:
+        magnified ``view_zoom`` times (>= 1: a longer lens, a camera nearer or higher) about
+        the point ``view_centre`` of the street (fractions of its width and height; moved up
+        or down, the horizon goes the other way: the camera's tilt), turned by
+        ``view_roll_deg`` (counter-clockwise as shown) and mirrored left to right. The
+        precipitation is drawn in the frame as it is (its orientation is its own). The view
+        must stay on the street: :func:`view_fits` says whether it does
+    lens_blur_px : a soft camera: the whole view, precipitation included, is blurred by a
+        Gaussian of this standard deviation (px) after the light and before the sensor noise
+        and the codec (the street is drawn with a blur of 0.7 px already); 0: none
     rain, snow : the precipitation layers, or None
     schedule : intensity of the precipitation per frame: None (1 always), a number, a sequence
         indexed by frame (frames past its end take its last value), or a callable of the frame
@@ -106,6 +116,11 @@ class SceneParams:
     shade_edge: float = 0.3
     wet_road: float = 0.0
     wet_always: bool = False
+    view_zoom: float = 1.0
+    view_centre: tuple[float, float] = (0.5, 0.5)
+    view_roll_deg: float = 0.0
+    view_mirror: bool = False
+    lens_blur_px: float = 0.0
     rain: StreakParams | None = None
     snow: SnowParams | None = None
     schedule: Schedule | float | None = None
@@ -137,6 +152,9 @@ class SceneParams:
         _require(0 < self.shade_cover < 1, "SceneParams.shade_cover", "must be in (0, 1)")
         _require(0 <= self.shade_edge <= 1, "SceneParams.shade_edge", "must be in [0, 1]")
         _require(0 <= self.wet_road <= 1, "SceneParams.wet_road", "must be in [0, 1]")
+        _require(1 <= self.view_zoom <= 4, "SceneParams.view_zoom", "must be in [1, 4]")
+        _require(abs(self.view_roll_deg) <= 20, "SceneParams.view_roll_deg", "must be in [-20, 20]")
+        _require(0 <= self.lens_blur_px <= 10, "SceneParams.lens_blur_px", "must be in [0, 10]")
 
     @classmethod
     def busy(cls, **overrides: object) -> SceneParams:
@@ -237,6 +255,13 @@ class Scene:
         bg, self._foliage = _paint_background(self.width, self.height, rng)
         self._sway = self.params.foliage_sway_px > 0
         self._static = bg if self._sway else self._foliage.over(bg)
+        p = self.params
+        _require(
+            view_fits(p.view_zoom, p.view_centre, p.view_roll_deg, self.width / self.height),
+            "SceneParams.view_centre",
+            "the view must stay on the street (scene.view_centre_range gives where it may be)",
+        )
+        self._view = view_matrix(p, self.width, self.height)
         self._gain_starts = [1.0]  # gain at the start of each exposure slot, grown on demand
         self._noise_bank: np.ndarray | None = None
         self._shade = self._shade_canvas() if self.params.shade > 0 else None
@@ -248,8 +273,15 @@ class Scene:
 
     @property
     def background(self) -> np.ndarray:
-        """(H, W) uint8: the empty street, foliage at rest, gain 1, no noise."""
+        """(H, W) uint8: the empty street, foliage at rest, gain 1, no noise (through the
+        lens's blur, ``SceneParams.lens_blur_px``)."""
         still = self._foliage.over(self._static) if self._sway else self._static
+        if self._view is not None:
+            still = cv2.warpAffine(
+                still, self._view, (self.width, self.height), flags=cv2.INTER_LINEAR
+            )
+        if self.params.lens_blur_px > 0:
+            still = cv2.GaussianBlur(still, (0, 0), float(self.params.lens_blur_px))
         return np.clip(still + 0.5, 0, 255).astype(np.uint8)
 
     def frames(
@@ -283,8 +315,9 @@ class Scene:
         # by a fraction of a pixel would blur every streak a second time, by up to half its
         # contrast on half the frames, which no camera does.
         dx, dy = self._shake(i)
-        if p.shake_px > 0:
-            m = np.float32([[1, 0, dx], [0, 1, dy]])
+        if p.shake_px > 0 or self._view is not None:
+            m = np.float32([[1, 0, 0], [0, 1, 0]]) if self._view is None else self._view.copy()
+            m[:, 2] += (dx, dy)  # the shake moves the view
             img = cv2.warpAffine(
                 img,
                 m,
@@ -319,6 +352,14 @@ class Scene:
             out = clear
         else:
             out = np.minimum(wet, 255) if lit else np.clip(wet * g, 0, 255)
+        if p.lens_blur_px > 0:
+            # the optics blur whatever comes through them, the drops too; the truth of what is
+            # visible compares the blurred view with and without them
+            blur = float(p.lens_blur_px)
+            clear = cv2.GaussianBlur(np.asarray(clear, np.float32), (0, 0), blur)
+            out = (
+                clear if not layers else cv2.GaussianBlur(np.asarray(out, np.float32), (0, 0), blur)
+            )
 
         # Ground truth per pixel: 0 none, 1 Gaussian population, 2 uniform population.
         if layers:
@@ -559,3 +600,53 @@ class Scene:
             x = -px_m + v * tau if right else w + px_m - v * tau
             base = (_Y_PAVEMENT + rng.uniform(0.35, 0.9) * (_Y_ROAD - _Y_PAVEMENT)) * h
             _draw_walker(img, x, base, px_m * rng.uniform(1.6, 1.85), tau / p.fps, rng)
+
+
+def _view_extent(zoom: float, roll_deg: float, aspect: float) -> tuple[float, float]:
+    """Half the extent, as fractions of the street's width and height, of the part of the
+    street a view magnified ``zoom`` times and turned by ``roll_deg`` shows (a frame of
+    ``aspect`` width / height)."""
+    c, s = abs(math.cos(math.radians(roll_deg))), abs(math.sin(math.radians(roll_deg)))
+    return (c + s / aspect) / (2 * zoom), (c + s * aspect) / (2 * zoom)
+
+
+def view_fits(zoom: float, centre: tuple[float, float], roll_deg: float, aspect: float) -> bool:
+    """Whether a view (``SceneParams.view_*``) of a frame of ``aspect`` (width / height)
+    shows only the street: no border beyond it."""
+    ex, ey = _view_extent(zoom, roll_deg, aspect)
+    eps = 1e-9
+    return ex - eps <= centre[0] <= 1 - ex + eps and ey - eps <= centre[1] <= 1 - ey + eps
+
+
+def view_centre_range(
+    zoom: float, roll_deg: float, aspects: tuple[float, ...] = (4 / 3, 16 / 9)
+) -> tuple[tuple[float, float], tuple[float, float]] | None:
+    """The ranges ((x lo, x hi), (y lo, y hi)) of ``view_centre`` that keep a view on the
+    street at every frame aspect of ``aspects``; None when there are none."""
+    ex = max(_view_extent(zoom, roll_deg, a)[0] for a in aspects)
+    ey = max(_view_extent(zoom, roll_deg, a)[1] for a in aspects)
+    if ex > 0.5 or ey > 0.5:
+        return None
+    return (ex, 1 - ex), (ey, 1 - ey)
+
+
+def view_matrix(p: SceneParams, width: int, height: int) -> np.ndarray | None:
+    """(2, 3) float32 affine map from the street to the frame for ``p``'s view; None for the
+    street as drawn (no zoom, roll or mirror, centred)."""
+    if (
+        p.view_zoom == 1.0
+        and p.view_roll_deg == 0.0
+        and not p.view_mirror
+        and tuple(p.view_centre) == (0.5, 0.5)
+    ):
+        return None
+    a = math.radians(p.view_roll_deg)
+    # counter-clockwise as shown (y down), magnified; after the mirror (x -> -x)
+    rot = p.view_zoom * np.array([[math.cos(a), math.sin(a)], [-math.sin(a), math.cos(a)]])
+    lin = rot @ np.diag([-1.0 if p.view_mirror else 1.0, 1.0])
+    # the street's point view_centre lands at the frame's centre
+    c = np.array([p.view_centre[0] * (width - 1), p.view_centre[1] * (height - 1)])
+    m = np.empty((2, 3), np.float32)
+    m[:, :2] = lin
+    m[:, 2] = np.array([(width - 1) / 2.0, (height - 1) / 2.0]) - lin @ c
+    return m

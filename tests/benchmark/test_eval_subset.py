@@ -13,12 +13,15 @@ import cv2
 import numpy as np
 import pytest
 
+from drivers.simulator import families
 from drivers.simulator.families import (
     CONDITIONS,
+    SPLITS,
     case_frames,
     sample_case,
     sample_cases,
 )
+from drivers.simulator.scene import view_fits
 from tests.conftest import REPO
 
 _spec = importlib.util.spec_from_file_location("eval_scenes", REPO / "bench" / "eval_scenes.py")
@@ -81,6 +84,38 @@ def test_the_splits_differ_in_seeds_and_ranges() -> None:
         shaded = [c for c in cases if c.params.shade > 0]
         assert 0 < len(shaded) < len(cases)
         assert all(0.2 <= c.params.shade <= 0.55 for c in shaded)
+
+
+def test_the_splits_draw_views_of_the_street_and_soft_lenses(monkeypatch) -> None:
+    # the street magnified, aimed, rolled or mirrored, and a soft lens, in some scenes of each
+    # split; the evaluation split's ranges are wider than the tuning split's
+    for split, zoom, roll, blur in (("tuning", 1.3, 2.0, 1.0), ("evaluation", 1.6, 4.0, 1.5)):
+        cases = sample_cases(split, per_cell=2, frames=10)
+        viewed = [c for c in cases if c.params.view_zoom > 1.0]
+        soft = [c for c in cases if c.params.lens_blur_px > 0]
+        assert 0 < len(viewed) < len(cases) and 0 < len(soft) < len(cases)
+        assert any(c.params.view_mirror for c in viewed)
+        assert any(not c.params.view_mirror for c in viewed)
+        for c in viewed:
+            p = c.params
+            assert 1.0 < p.view_zoom <= zoom + 0.02 and abs(p.view_roll_deg) <= roll
+            assert view_fits(p.view_zoom, p.view_centre, p.view_roll_deg, c.width / c.height)
+        assert all(0.3 <= c.params.lens_blur_px <= blur for c in soft)
+    # drawn from a stream of their own: without them, every other draw of a scene is the same
+    for split in SPLITS:
+        drawn = sample_cases(split, per_cell=1, frames=10)
+        ranges = {**families._RANGES[split], "view_chance": 0.0, "blur_chance": 0.0}
+        monkeypatch.setitem(families._RANGES, split, ranges)
+        plain = sample_cases(split, per_cell=1, frames=10)
+        monkeypatch.undo()
+        unviewed = {
+            "view_zoom": 1.0,
+            "view_centre": (0.5, 0.5),
+            "view_roll_deg": 0.0,
+            "view_mirror": False,
+            "lens_blur_px": 0.0,
+        }
+        assert [replace(c, params=replace(c.params, **unviewed)) for c in drawn] == plain
 
 
 def test_truth_of_a_transition_and_a_re_aimed_camera() -> None:
@@ -273,6 +308,15 @@ def test_conditions_select_the_same_scenes_as_the_full_run() -> None:
         ev.main(["--conditions", "hail"])
 
 
+def test_a_scenes_view_is_named() -> None:
+    case = sample_case("tuning", 9, condition="drizzle", camera="static", frames=50)
+    plain = replace(case.params, view_zoom=1.0, view_centre=(0.5, 0.5), view_roll_deg=0.0)
+    assert ev.view_name(replace(case, params=replace(plain, view_mirror=False))) == ""
+    assert ev.view_name(replace(case, params=replace(plain, view_mirror=True))) == "mirrored"
+    rolled = replace(plain, view_zoom=1.2, view_roll_deg=-1.5, view_centre=(0.45, 0.5))
+    assert ev.view_name(replace(case, params=rolled)) == "x1.20 roll -1.5"
+
+
 def test_the_scenes_table_says_where_a_rows_misses_are() -> None:
     case = sample_case("tuning", 9, condition="drizzle", camera="static", frames=50)
     jpeg = replace(case, h264_crf=None, params=replace(case.params, jpeg_quality=60))
@@ -280,6 +324,7 @@ def test_the_scenes_table_says_where_a_rows_misses_are() -> None:
     assert ev.codec_name(replace(jpeg, h264_crf=26)) == "H.264 CRF 26"
     assert ev.codec_name(replace(jpeg, params=replace(jpeg.params, jpeg_quality=None))) == "none"
     a = ev.CaseResult("a", "drizzle", "static", 1.0, 20.0, (1280, 720), "H.264 CRF 26", 0.52)
+    a.view, a.lens = "x1.32 roll -2.1 mirrored", 0.8
     a.wet, a.detected, a.judged_still = 285, 16, 285
     a.types.update({("rain", "unknown"): 269, ("rain", "rain"): 16})
     b = ev.CaseResult("b", "clear", "wind", 0.0, 10.0, (320, 240), "none", 0.0)
@@ -292,12 +337,16 @@ def test_the_scenes_table_says_where_a_rows_misses_are() -> None:
         "20",
         "H.264 CRF 26",
         "0.52",
+        "x1.32 roll -2.1 mirrored",
+        "0.8",
         "-",
         "16/285",
         "0/285",
         "rain: rain 16, rain: unknown 269",
     ]
-    assert rows[1][4:7] == ["-", "0/200", "-"]
+    assert rows[1][4:9] == ["-", "-", "-", "0/200", "-"]
     assert "scenes:" not in ev.render("tuning", [a, b], 1.0, markdown=False)
     text = ev.render("tuning", [a, b], 1.0, markdown=True, scenes=True)
-    assert "| a | 1280x720 | 20 | H.264 CRF 26 | 0.52 | - | 16/285 |" in text
+    assert (
+        "| a | 1280x720 | 20 | H.264 CRF 26 | 0.52 | x1.32 roll -2.1 mirrored | 0.8 | - |" in text
+    )

@@ -2,6 +2,7 @@ import itertools
 import math
 
 import av
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -21,6 +22,7 @@ from drivers.simulator import (
     render_streaks,
     write_video,
 )
+from drivers.simulator.scene import view_centre_range, view_fits, view_matrix
 
 SIZE = (160, 96)  # (W, H) of the scenes: small, so that the file runs in a few seconds
 
@@ -435,6 +437,65 @@ def test_cloud_shade_darkens_part_of_the_view_and_drifts():
     rainy = _scene(seed=8, shade=0.4, rain=StreakParams(count=200))
     _, truth = rainy.frame(3)
     assert truth.mask.any() and truth.gain == 1.0  # the shade is not a global gain
+
+
+def test_a_mirrored_view_is_the_street_flipped():
+    street = _scene(seed=4, cars=2, pedestrians=2, foliage_sway_px=1.0)
+    mirrored = _scene(seed=4, cars=2, pedestrians=2, foliage_sway_px=1.0, view_mirror=True)
+    for i in (0, 7):
+        np.testing.assert_array_equal(mirrored.frame(i)[0], np.fliplr(street.frame(i)[0]))
+    np.testing.assert_array_equal(mirrored.background, np.fliplr(street.background))
+
+
+def test_a_view_magnifies_and_rolls_the_street_about_its_centre():
+    w, h = SIZE
+    p = SceneParams(view_zoom=1.5, view_centre=(0.45, 0.55), view_roll_deg=10.0)
+    m = view_matrix(p, w, h)
+    centre = np.array([0.45 * (w - 1), 0.55 * (h - 1)])
+    mid = np.array([(w - 1) / 2, (h - 1) / 2])
+    np.testing.assert_allclose(m[:, :2] @ centre + m[:, 2], mid, atol=1e-4)
+    # a step to the right on the street: 1.5 times as long, turned up (counter-clockwise)
+    step = m[:, :2] @ np.array([10.0, 0.0])
+    assert np.hypot(*step) == pytest.approx(15.0, rel=1e-5)
+    assert math.degrees(math.atan2(-step[1], step[0])) == pytest.approx(10.0, abs=1e-4)
+    assert view_matrix(SceneParams(), w, h) is None  # the street as drawn
+
+
+@pytest.mark.parametrize("roll", [0.0, 3.0, -4.0])
+@pytest.mark.parametrize("zoom", [1.15, 1.6])
+def test_a_view_anywhere_in_its_range_shows_only_the_street(zoom, roll):
+    w, h = 192, 108
+    (x0, x1), (y0, y1) = view_centre_range(zoom, roll, (w / h,))
+    for centre in itertools.product((x0, x1), (y0, y1)):
+        p = SceneParams(view_zoom=zoom, view_centre=centre, view_roll_deg=roll)
+        assert view_fits(zoom, centre, roll, w / h)
+        # beyond the street, the warp leaves black (the street has no pixel darker than 40)
+        assert Scene(w, h, seed=2, params=p).background.min() > 20
+    assert view_centre_range(1.0, 3.0, (w / h,)) is None  # a rolled view needs a zoom
+    outside = SceneParams(view_zoom=1.2, view_centre=(0.05, 0.5))
+    with pytest.raises(ValueError, match="view_centre"):
+        Scene(w, h, params=outside)
+
+
+def test_a_soft_lens_blurs_the_street_and_the_drops_alike():
+    rain = StreakParams(count=150, brightness=20.0)
+    sharp, sharp_truth = _scene(seed=5, rain=rain).frame(2)
+    soft, soft_truth = _scene(seed=5, rain=rain, lens_blur_px=1.5).frame(2)
+
+    def fine(img):  # energy of the finest detail
+        g = img.astype(np.float32)
+        return float(np.mean((g - cv2.GaussianBlur(g, (0, 0), 1.0)) ** 2))
+
+    assert fine(soft) < 0.3 * fine(sharp)
+    assert soft.mean() == pytest.approx(sharp.mean(), abs=0.5)  # light is kept
+    # a blurred drop is spread and dimmer: its peak over the street is lower, and fewer of
+    # its pixels stand out by VISIBLE_C
+    dry_sharp = _scene(seed=5).frame(2)[0].astype(int)
+    dry_soft = _scene(seed=5, lens_blur_px=1.5).frame(2)[0].astype(int)
+    assert (soft - dry_soft).max() < 0.6 * (sharp - dry_sharp).max()
+    assert 0 < soft_truth.mask.sum() < sharp_truth.mask.sum()
+    with pytest.raises(ValueError, match="lens_blur_px"):
+        SceneParams(lens_blur_px=-1.0)
 
 
 def test_sensor_noise_is_fresh_every_frame():
