@@ -73,6 +73,10 @@ class CaseResult:
     #: shade's depth (the share of the light it takes; 0: none)
     codec: str = ""
     shade: float = 0.0
+    #: the camera's view of the street ("x1.32 roll -2.1 mirrored"; "" as drawn) and the
+    #: lens's blur in px (0: none)
+    view: str = ""
+    lens: float = 0.0
     judged_clear: int = 0
     false_frames: int = 0
     false_onsets: int = 0
@@ -178,6 +182,8 @@ def score(case: SceneCase, overrides: tuple[str, ...] = ()) -> CaseResult:
         (case.width, case.height),
         codec=codec_name(case),
         shade=float(case.params.shade),
+        view=view_name(case),
+        lens=float(case.params.lens_blur_px),
     )
     verdicts: list[bool] = []
     truths: list[bool] = []
@@ -266,6 +272,19 @@ def codec_name(case: SceneCase) -> str:
     return "none"
 
 
+def view_name(case: SceneCase) -> str:
+    """``case``'s view of the street: its zoom, roll and mirror ("" for the street as drawn)."""
+    p = case.params
+    parts = []
+    if p.view_zoom != 1.0 or p.view_roll_deg != 0.0 or tuple(p.view_centre) != (0.5, 0.5):
+        parts.append(f"x{p.view_zoom:.2f}")
+        if p.view_roll_deg:
+            parts.append(f"roll {p.view_roll_deg:+.1f}")
+    if p.view_mirror:
+        parts.append("mirrored")
+    return " ".join(parts)
+
+
 def select_conditions(cases: list[SceneCase], conditions: str | None) -> list[SceneCase]:
     """The cases of the comma-separated ``conditions`` (all when None); ValueError naming
     the known conditions for one that is not."""
@@ -287,6 +306,8 @@ SCENE_HEADER = [
     "fps",
     "codec",
     "shade",
+    "view",
+    "lens",
     "false rain",
     "detected",
     "unstable",
@@ -309,6 +330,8 @@ def scene_rows(results: list[CaseResult]) -> list[list[str]]:
                 f"{r.fps:g}",
                 r.codec or "-",
                 f"{r.shade:.2f}" if r.shade > 0 else "-",
+                r.view or "-",
+                f"{r.lens:.1f}" if r.lens > 0 else "-",
                 f"{r.false_frames}/{r.judged_clear}" if r.judged_clear else "-",
                 f"{r.detected}/{r.wet}" if r.wet else "-",
                 f"{r.unstable}/{r.judged_still}" if r.judged_still else "-",

@@ -17,6 +17,14 @@ Sets:
   shade (0.45 of the light, edge 0.2, 160 px/s, half the sky): false frames and onsets in
   the clear parts, the shower seen. At the defaults, tuning-109 says snow on 26 clear
   frames (the fall rule; docs/method.md, departure 37).
+- ``wet-720p10``: the same transitions with no shade: a wet road under traffic after a
+  shower, at a frame rate where a reflection moves far between frames.
+- ``soft-720``, ``soft-1080``, ``soft-drizzle-720``, ``soft-light-720``: a soft camera. The
+  tuning generator's scene of that condition with the camera in the wind, its own frame rate,
+  codec, shade and view, drawn at 1280x720 (1920x1080) through a lens that blurs by 1.5 px
+  (2 px): a cheap camera's picture, whose finest detail spans several pixels. The real dry
+  clips enlarged so (``bench/eval_clips.py --upscale``) have shown foliage that a soft
+  camera makes streak-sized; the synthetic street's does not (docs/figures.md).
 - ``drizzle-shade``, ``snow-shade``: drizzle or snow on a fixed camera at 640x360, 10 fps,
   JPEG 60, under the same shade (80 px/s at that width): the frames said. Drizzle under
   this shade is not seen at all (0 of 285 frames in each of scenes 100-105).
@@ -34,7 +42,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from drivers.simulator.families import SceneCase, sample_case
+from drivers.simulator.families import SceneCase, rain_streaks, sample_case
 
 if "eval_scenes" in sys.modules:  # loaded already (the tests load it by path)
     ev = sys.modules["eval_scenes"]
@@ -57,14 +65,40 @@ SETS: dict[str, tuple[str, int, int, dict]] = {
     "shade-720p10": ("transition", 1280, 720, {"cars": 6, "wet_road": 0.99}),
     "drizzle-shade": ("drizzle", 640, 360, {}),
     "snow-shade": ("snow", 640, 360, {}),
+    "wet-720p10": ("transition", 1280, 720, {"cars": 6, "wet_road": 0.99, "shade": 0.0}),
+}
+#: soft cameras: set name -> (condition, width, height, the lens's blur in px): the tuning
+#: generator's scene with the camera in the wind, its own frame rate, codec and shade, drawn
+#: at a large size through a soft lens (``SceneParams.lens_blur_px``)
+SOFT: dict[str, tuple[str, int, int, float]] = {
+    "soft-720": ("clear", 1280, 720, 1.5),
+    "soft-1080": ("clear", 1920, 1080, 2.0),
+    "soft-drizzle-720": ("drizzle", 1280, 720, 1.5),
+    "soft-light-720": ("light", 1280, 720, 1.5),
 }
 
 
 def stress_case(name: str, index: int, *, frames: int = FRAMES) -> SceneCase:
-    """The tuning generator's scene ``index`` of the set's condition on a fixed camera,
-    drawn again with the stress set ``name``'s settings (10 fps, JPEG 60, no H.264)."""
+    """The tuning generator's scene ``index`` of the set's condition, drawn again with the
+    stress set ``name``'s settings: for the shade's and the wet road's sets, on a fixed
+    camera at 10 fps, JPEG 60, no H.264; for a soft camera's, in the wind through its lens."""
+    if name in SOFT:
+        condition, width, height, blur = SOFT[name]
+        case = sample_case("tuning", index, condition=condition, camera="wind", frames=frames)
+        scale = width / case.width
+        rain = case.params.rain
+        if rain is not None:  # as many streaks per pixel as the generator draws at any size
+            rain = rain_streaks(condition, width, height, mu_deg=rain.mu_deg)
+        params = replace(
+            case.params,
+            lens_blur_px=blur,
+            rain=rain,
+            shade_speed_px_s=case.params.shade_speed_px_s * scale,
+        )
+        return replace(case, name=f"{case.name}-{name}", width=width, height=height, params=params)
     if name not in SETS:
-        raise ValueError(f"unknown stress set {name!r}: one of {', '.join(SETS)}")
+        known = ", ".join([*SETS, *SOFT])
+        raise ValueError(f"unknown stress set {name!r}: one of {known}")
     condition, width, height, extra = SETS[name]
     case = sample_case("tuning", index, condition=condition, camera="static", frames=frames)
     params = replace(
@@ -72,8 +106,7 @@ def stress_case(name: str, index: int, *, frames: int = FRAMES) -> SceneCase:
         fps=10.0,
         jpeg_quality=60,
         shade_speed_px_s=SHADE_SPEED_1280 * width / 1280,
-        **SHADE,
-        **extra,
+        **{**SHADE, **extra},  # a set's own settings over the shade's
     )
     return replace(
         case,
@@ -97,7 +130,7 @@ def _line(r) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("stress", choices=list(SETS), help="the stress set")
+    ap.add_argument("stress", choices=[*SETS, *SOFT], help="the stress set")
     ap.add_argument("--scenes", default="100:112", help="tuning indices LO:HI (HI excluded)")
     ap.add_argument("--frames", type=int, default=FRAMES)
     ap.add_argument("--jobs", type=int, default=2)

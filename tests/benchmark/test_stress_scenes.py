@@ -49,6 +49,26 @@ def test_a_stress_case_is_the_tuning_scene_under_the_sets_settings(
         assert (p.cars, p.wet_road) == (base.params.cars, base.params.wet_road)
 
 
+@pytest.mark.parametrize("name", ["soft-720", "soft-drizzle-720"])
+def test_a_soft_camera_is_the_windy_tuning_scene_large_through_a_soft_lens(name: str) -> None:
+    condition, width, height, blur = st.SOFT[name]
+    case = st.stress_case(name, 104)
+    base = sample_case("tuning", 104, condition=condition, camera="wind", frames=st.FRAMES)
+    assert case.name == f"{base.name}-{name}"
+    assert (case.width, case.height, case.params.lens_blur_px) == (width, height, blur)
+    # its own frame rate, codec, shake and view
+    assert (case.fps, case.h264_crf, case.params.jpeg_quality) == (
+        base.fps,
+        base.h264_crf,
+        base.params.jpeg_quality,
+    )
+    assert case.params.shake_px == base.params.shake_px > 0
+    if base.params.rain is not None:  # as many streaks a pixel as the generator draws
+        area = width * height / (base.width * base.height)
+        assert case.params.rain.count == pytest.approx(base.params.rain.count * area, rel=0.01)
+        assert case.params.rain.mu_deg == base.params.rain.mu_deg
+
+
 def test_an_unknown_set_is_refused() -> None:
     with pytest.raises(ValueError, match="unknown stress set 'fog'"):
         st.stress_case("fog", 100)
