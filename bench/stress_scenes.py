@@ -43,6 +43,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from drivers.simulator.families import SceneCase, rain_streaks, sample_case
+from drivers.simulator.scene import fit_view
 
 if "eval_scenes" in sys.modules:  # loaded already (the tests load it by path)
     ev = sys.modules["eval_scenes"]
@@ -90,7 +91,7 @@ def stress_case(name: str, index: int, *, frames: int = FRAMES) -> SceneCase:
         if rain is not None:  # as many streaks per pixel as the generator draws at any size
             rain = rain_streaks(condition, width, height, mu_deg=rain.mu_deg)
         params = replace(
-            case.params,
+            fit_view(case.params, width / height),  # its view, at the set's frame size
             lens_blur_px=blur,
             rain=rain,
             shade_speed_px_s=case.params.shade_speed_px_s * scale,
@@ -102,7 +103,7 @@ def stress_case(name: str, index: int, *, frames: int = FRAMES) -> SceneCase:
     condition, width, height, extra = SETS[name]
     case = sample_case("tuning", index, condition=condition, camera="static", frames=frames)
     params = replace(
-        case.params,
+        fit_view(case.params, width / height),  # its view, at the set's frame size
         fps=10.0,
         jpeg_quality=60,
         shade_speed_px_s=SHADE_SPEED_1280 * width / 1280,

@@ -630,6 +630,19 @@ def view_centre_range(
     return (ex, 1 - ex), (ey, 1 - ey)
 
 
+def fit_view(p: SceneParams, aspect: float) -> SceneParams:
+    """``p`` with its view brought onto the street for a frame of ``aspect`` (width / height):
+    the least zoom its roll needs there, and its centre moved (the least) into range; ``p``
+    itself when its view fits already (a scene drawn for one frame size, drawn at another)."""
+    if view_fits(p.view_zoom, p.view_centre, p.view_roll_deg, aspect):
+        return p
+    a = math.radians(abs(p.view_roll_deg))
+    zoom = max(p.view_zoom, math.cos(a) + math.sin(a) * max(aspect, 1.0 / aspect))
+    (x0, x1), (y0, y1) = view_centre_range(zoom, p.view_roll_deg, (aspect,))
+    centre = (min(max(p.view_centre[0], x0), x1), min(max(p.view_centre[1], y0), y1))
+    return replace(p, view_zoom=zoom, view_centre=centre)
+
+
 def view_matrix(p: SceneParams, width: int, height: int) -> np.ndarray | None:
     """(2, 3) float32 affine map from the street to the frame for ``p``'s view; None for the
     street as drawn (no zoom, roll or mirror, centred)."""

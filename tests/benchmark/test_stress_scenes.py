@@ -8,6 +8,7 @@ import sys
 import pytest
 
 from drivers.simulator.families import sample_case
+from drivers.simulator.scene import Scene
 from tests.conftest import REPO
 
 _spec = importlib.util.spec_from_file_location("stress_scenes", REPO / "bench" / "stress_scenes.py")
@@ -67,6 +68,14 @@ def test_a_soft_camera_is_the_windy_tuning_scene_large_through_a_soft_lens(name:
         area = width * height / (base.width * base.height)
         assert case.params.rain.count == pytest.approx(base.params.rain.count * area, rel=0.01)
         assert case.params.rain.mu_deg == base.params.rain.mu_deg
+
+
+def test_every_set_draws_its_scenes_whatever_view_they_had() -> None:
+    # a scene's view is drawn for its own frame size; a set draws it at another
+    for name in [*st.SETS, *st.SOFT]:
+        for index in range(100, 112):
+            case = st.stress_case(name, index, frames=2)
+            Scene(case.width, case.height, seed=case.seed, params=case.params)
 
 
 def test_an_unknown_set_is_refused() -> None:

@@ -22,7 +22,7 @@ from drivers.simulator import (
     render_streaks,
     write_video,
 )
-from drivers.simulator.scene import view_centre_range, view_fits, view_matrix
+from drivers.simulator.scene import fit_view, view_centre_range, view_fits, view_matrix
 
 SIZE = (160, 96)  # (W, H) of the scenes: small, so that the file runs in a few seconds
 
@@ -475,6 +475,18 @@ def test_a_view_anywhere_in_its_range_shows_only_the_street(zoom, roll):
     outside = SceneParams(view_zoom=1.2, view_centre=(0.05, 0.5))
     with pytest.raises(ValueError, match="view_centre"):
         Scene(w, h, params=outside)
+
+
+def test_a_view_drawn_for_one_frame_is_fitted_to_another():
+    # a 4:3 scene's view, rolled and aimed near its edge, drawn at 16:9: the least change
+    p = SceneParams(view_zoom=1.1, view_centre=(0.5, 0.478), view_roll_deg=2.0)
+    assert view_fits(1.1, (0.5, 0.478), 2.0, 4 / 3)
+    assert not view_fits(1.1, (0.5, 0.478), 2.0, 16 / 9)
+    q = fit_view(p, 16 / 9)
+    assert view_fits(q.view_zoom, q.view_centre, q.view_roll_deg, 16 / 9)
+    assert q.view_roll_deg == 2.0 and q.view_zoom >= 1.1
+    assert fit_view(q, 16 / 9) is q  # a view that fits is left alone
+    Scene(192, 108, params=q)
 
 
 def test_a_soft_lens_blurs_the_street_and_the_drops_alike():
