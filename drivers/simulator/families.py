@@ -184,10 +184,18 @@ class SceneCase:
 
 
 def sample_case(
-    split: str, index: int, *, condition: str, camera: str, frames: int = 300
+    split: str,
+    index: int,
+    *,
+    condition: str,
+    camera: str,
+    frames: int = 300,
+    views: bool = True,
 ) -> SceneCase:
     """Scene ``index`` of ``split`` under ``condition`` with ``camera``: the same arguments
-    always give the same scene."""
+    always give the same scene. ``views=False``: the street as drawn before the camera's view
+    and lens were (every other draw is the same): a scene that a test or a figure measured
+    then."""
     if split not in _RANGES:
         raise ValueError(f"split must be one of {SPLITS}, got {split!r}")
     if condition not in CONDITIONS or camera not in CAMERAS:
@@ -244,12 +252,13 @@ def sample_case(
             shade_edge=float(sky.uniform(*r["shade_edge"])),
         )
     # ... and so do the camera's view of the street and its lens
-    params = _view(
-        params,
-        r,
-        width / height,
-        np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 5]),
-    )
+    if views:
+        params = _view(
+            params,
+            r,
+            width / height,
+            np.random.default_rng([seed, CONDITIONS.index(condition), CAMERAS.index(camera), 5]),
+        )
     density = 0.0
     rain_frames = None
     mu = float(rng.uniform(70.0, 110.0))
@@ -337,12 +346,14 @@ def _view(params: SceneParams, r: dict, aspect: float, rng: np.random.Generator)
     return params
 
 
-def sample_cases(split: str, *, per_cell: int = 1, frames: int = 300) -> list[SceneCase]:
+def sample_cases(
+    split: str, *, per_cell: int = 1, frames: int = 300, views: bool = True
+) -> list[SceneCase]:
     """Every condition with a static and a wind-shaken camera, clear weather with a re-aimed
     one, and clear weather and moderate rain with a knocked one, ``per_cell`` scenes each.
 
     The knocked cameras come last, so that every other scene keeps the index (and seed) it
-    had before they were added."""
+    had before they were added. ``views``: as for :func:`sample_case`."""
     cases = []
     index = 0
     cells = [
@@ -354,7 +365,9 @@ def sample_cases(split: str, *, per_cell: int = 1, frames: int = 300) -> list[Sc
     for condition, camera in cells:
         for _ in range(per_cell):
             cases.append(
-                sample_case(split, index, condition=condition, camera=camera, frames=frames)
+                sample_case(
+                    split, index, condition=condition, camera=camera, frames=frames, views=views
+                )
             )
             index += 1
     return cases

@@ -116,6 +116,7 @@ def test_the_splits_draw_views_of_the_street_and_soft_lenses(monkeypatch) -> Non
             "lens_blur_px": 0.0,
         }
         assert [replace(c, params=replace(c.params, **unviewed)) for c in drawn] == plain
+        assert sample_cases(split, per_cell=1, frames=10, views=False) == plain
 
 
 def test_truth_of_a_transition_and_a_re_aimed_camera() -> None:

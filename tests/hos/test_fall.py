@@ -194,7 +194,8 @@ def _sky_edge_fall_z(fall_light: bool, scene: int) -> float:
 
     from drivers.simulator.families import case_frames, sample_case
 
-    case = sample_case("tuning", scene, condition="clear", camera="static", frames=135)
+    # the street as it was drawn when this was measured (before the views of the street)
+    case = sample_case("tuning", scene, condition="clear", camera="static", frames=135, views=False)
     case = replace(
         case,
         fps=10.0,
