@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from .precipitation import SnowParams, StreakParams
-from .scene import Scene, SceneParams, view_centre_range
+from .scene import Scene, SceneParams, least_zoom, view_centre_range
 
 __all__ = [
     "CONDITIONS",
@@ -330,9 +330,7 @@ def _view(params: SceneParams, r: dict, aspect: float, rng: np.random.Generator)
     scenes; a soft lens on ``blur_chance`` of them."""
     if rng.random() < float(r["view_chance"]):
         roll = float(rng.uniform(-r["roll"], r["roll"]))
-        a = math.radians(abs(roll))
-        # the least zoom that keeps a rolled view on the street
-        least = max(math.cos(a) + math.sin(a) * k for k in (aspect, 1.0 / aspect))
+        least = least_zoom(roll, aspect)
         lo, hi = r["zoom"]
         zoom = float(rng.uniform(max(lo, least), max(hi, least)))
         (x0, x1), (y0, y1) = view_centre_range(zoom, roll, (aspect,))

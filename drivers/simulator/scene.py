@@ -610,12 +610,21 @@ def _view_extent(zoom: float, roll_deg: float, aspect: float) -> tuple[float, fl
     return (c + s / aspect) / (2 * zoom), (c + s * aspect) / (2 * zoom)
 
 
+def least_zoom(roll_deg: float, aspect: float) -> float:
+    """The least zoom that keeps a view rolled by ``roll_deg`` on the street, for a frame
+    of ``aspect`` (width / height)."""
+    a = math.radians(abs(roll_deg))
+    return max(math.cos(a) + math.sin(a) * k for k in (aspect, 1.0 / aspect))
+
+
 def view_fits(zoom: float, centre: tuple[float, float], roll_deg: float, aspect: float) -> bool:
     """Whether a view (``SceneParams.view_*``) of a frame of ``aspect`` (width / height)
     shows only the street: no border beyond it."""
-    ex, ey = _view_extent(zoom, roll_deg, aspect)
+    span = view_centre_range(zoom, roll_deg, (aspect,))
     eps = 1e-9
-    return ex - eps <= centre[0] <= 1 - ex + eps and ey - eps <= centre[1] <= 1 - ey + eps
+    return span is not None and all(
+        lo - eps <= c <= hi + eps for c, (lo, hi) in zip(centre, span, strict=True)
+    )
 
 
 def view_centre_range(
@@ -636,8 +645,7 @@ def fit_view(p: SceneParams, aspect: float) -> SceneParams:
     itself when its view fits already (a scene drawn for one frame size, drawn at another)."""
     if view_fits(p.view_zoom, p.view_centre, p.view_roll_deg, aspect):
         return p
-    a = math.radians(abs(p.view_roll_deg))
-    zoom = max(p.view_zoom, math.cos(a) + math.sin(a) * max(aspect, 1.0 / aspect))
+    zoom = max(p.view_zoom, least_zoom(p.view_roll_deg, aspect))
     (x0, x1), (y0, y1) = view_centre_range(zoom, p.view_roll_deg, (aspect,))
     centre = (min(max(p.view_centre[0], x0), x1), min(max(p.view_centre[1], y0), y1))
     return replace(p, view_zoom=zoom, view_centre=centre)
