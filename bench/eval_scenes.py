@@ -3,10 +3,12 @@ it was never tuned on, scored against per-frame truth, one table per split.
 
     .venv/bin/python bench/eval_scenes.py [--split tuning|evaluation|both] [--per-cell N]
                                           [--frames N] [--jobs N] [--markdown]
-                                          [--conditions drizzle,light] [--scenes]
+                                          [--conditions drizzle,light] [--scenes] [--first N]
 
 ``--conditions`` scores only those conditions' scenes (the same scenes as in the full run);
-``--scenes`` adds a table of the scenes one by one, to find where a row's misses are.
+``--scenes`` adds a table of the scenes one by one, to find where a row's misses are;
+``--first N`` draws other scenes of each split, numbered from N (scenes not yet looked at,
+to check a choice made on the tuning split against evaluation scenes nobody has seen).
 
 The scenes come from :mod:`drivers.simulator.families`: the tuning split is where a
 parameter may be set; the evaluation split (other seeds, sizes, frame rates, compression,
@@ -605,8 +607,17 @@ def main(argv: list[str] | None = None) -> int:
         help=f"comma-separated conditions to score, of {','.join(CONDITIONS)} (default: all)",
     )
     ap.add_argument("--scenes", action="store_true", help="also a table of the scenes one by one")
+    ap.add_argument(
+        "--first",
+        type=int,
+        default=0,
+        metavar="N",
+        help="index of the first scene (default 0): another N draws other scenes of each split",
+    )
     add_set_option(ap)
     args = ap.parse_args(argv)
+    if args.first < 0:
+        ap.error(f"--first must be >= 0, got {args.first}")
     try:
         select_conditions([], args.conditions)
     except ValueError as e:
@@ -616,13 +627,15 @@ def main(argv: list[str] | None = None) -> int:
     for split in splits:
         started = time.perf_counter()
         cases = select_conditions(
-            sample_cases(split, per_cell=args.per_cell, frames=args.frames), args.conditions
+            sample_cases(split, per_cell=args.per_cell, frames=args.frames, first=args.first),
+            args.conditions,
         )
         with ProcessPoolExecutor(args.jobs) as pool:
             results = list(pool.map(score, cases, [tuple(args.set)] * len(cases)))
         _patch_results(results)
         seconds = time.perf_counter() - started
-        print(render(split, results, seconds, markdown=args.markdown, scenes=args.scenes))
+        title = split if args.first == 0 else f"{split} (from scene {args.first})"
+        print(render(title, results, seconds, markdown=args.markdown, scenes=args.scenes))
         print(flush=True)
     print(f"make eval: {time.perf_counter() - total:.0f} s in all")
     return 0

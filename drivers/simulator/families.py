@@ -345,15 +345,19 @@ def _view(params: SceneParams, r: dict, aspect: float, rng: np.random.Generator)
 
 
 def sample_cases(
-    split: str, *, per_cell: int = 1, frames: int = 300, views: bool = True
+    split: str, *, per_cell: int = 1, frames: int = 300, views: bool = True, first: int = 0
 ) -> list[SceneCase]:
     """Every condition with a static and a wind-shaken camera, clear weather with a re-aimed
     one, and clear weather and moderate rain with a knocked one, ``per_cell`` scenes each.
 
     The knocked cameras come last, so that every other scene keeps the index (and seed) it
-    had before they were added. ``views``: as for :func:`sample_case`."""
+    had before they were added. ``views``: as for :func:`sample_case`. ``first``: the index of
+    the first scene; another ``first`` draws other scenes of the same split, each with the
+    seed of its index (scenes not yet looked at, to check a choice made elsewhere)."""
+    if first < 0:
+        raise ValueError(f"first must be >= 0, got {first}")
     cases = []
-    index = 0
+    index = first
     cells = [
         (condition, camera)
         for condition in CONDITIONS

@@ -351,3 +351,19 @@ def test_the_scenes_table_says_where_a_rows_misses_are() -> None:
     assert (
         "| a | 1280x720 | 20 | H.264 CRF 26 | 0.52 | x1.32 roll -2.1 mirrored | 0.8 | - |" in text
     )
+
+
+def test_first_draws_other_scenes_of_the_same_split() -> None:
+    # --first N: scenes not yet looked at, numbered on from N, each the scene of its index
+    cases = sample_cases("evaluation", per_cell=1, frames=10)
+    later = sample_cases("evaluation", per_cell=1, frames=10, first=1000)
+    assert [c.name.split("-", 2)[2] for c in later] == [c.name.split("-", 2)[2] for c in cases]
+    assert later[0].name == "evaluation-1000-clear-static"
+    assert {c.seed for c in later}.isdisjoint({c.seed for c in cases})
+    assert later[3] == sample_case(
+        "evaluation", 1003, condition=later[3].condition, camera=later[3].camera, frames=10
+    )
+    with pytest.raises(ValueError, match="first"):
+        sample_cases("evaluation", first=-1)
+    with pytest.raises(SystemExit):
+        ev.main(["--first", "-1"])
