@@ -50,7 +50,7 @@ def test_a_stress_case_is_the_tuning_scene_under_the_sets_settings(
         assert (p.cars, p.wet_road) == (base.params.cars, base.params.wet_road)
 
 
-@pytest.mark.parametrize("name", ["soft-720", "soft-drizzle-720"])
+@pytest.mark.parametrize("name", ["soft-720", "soft-drizzle-720", "soft-snow-270"])
 def test_a_soft_camera_is_the_windy_tuning_scene_large_through_a_soft_lens(name: str) -> None:
     condition, width, height, blur = st.SOFT[name]
     case = st.stress_case(name, 104)
@@ -68,6 +68,10 @@ def test_a_soft_camera_is_the_windy_tuning_scene_large_through_a_soft_lens(name:
         area = width * height / (base.width * base.height)
         assert case.params.rain.count == pytest.approx(base.params.rain.count * area, rel=0.01)
         assert case.params.rain.mu_deg == base.params.rain.mu_deg
+    if base.params.snow is not None:  # as many flakes a pixel
+        area = width * height / (base.width * base.height)
+        assert case.params.snow.count == pytest.approx(base.params.snow.count * area, rel=0.01)
+        assert case.params.snow.mu_deg == base.params.snow.mu_deg
 
 
 def test_every_set_draws_its_scenes_whatever_view_they_had() -> None:
