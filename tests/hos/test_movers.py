@@ -34,8 +34,10 @@ def _runs(*mover_rates: float) -> dict[float, tuple[np.ndarray, int]]:
     # false frames without it, none with it) and the shorter of two offset fits (departure
     # 27: 5 false frames with the symmetric fit alone, none) and the moved edges (departure
     # 30: the vertical edges' slivers do not vote) also keep this scene clear without the
-    # mover rule: all off here, so that the mover rule is shown alone
-    segmentation = {"thin_factor": 1.0}
+    # mover rule, and so does the size rule's larger bound (departure 38: larger fragments
+    # vote, at their own orientations): all off, or as measured, here, so that the mover
+    # rule is shown alone
+    segmentation = {"thin_factor": 1.0, "max_area": 50}
     runs = []
     for mover_rate in mover_rates:
         robustness = {
