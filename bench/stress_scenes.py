@@ -45,7 +45,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from drivers.simulator.families import SceneCase, rain_streaks, sample_case
+from drivers.simulator.families import SceneCase, rain_streaks, sample_case, snow_flakes
 from drivers.simulator.scene import fit_view
 
 if "eval_scenes" in sys.modules:  # loaded already (the tests load it by path)
@@ -93,13 +93,13 @@ def stress_case(name: str, index: int, *, frames: int = FRAMES) -> SceneCase:
         condition, width, height, blur = SOFT[name]
         case = sample_case("tuning", index, condition=condition, camera="wind", frames=frames)
         scale = width / case.width
-        scale_area = case.width * case.height
         rain, snow = case.params.rain, case.params.snow
         # as many streaks or flakes per pixel as the generator draws at any size
         if rain is not None:
             rain = rain_streaks(condition, width, height, mu_deg=rain.mu_deg)
-        if snow is not None:
-            snow = replace(snow, count=max(1, round(snow.count * width * height / scale_area)))
+        if snow is not None:  # its fall given at 480 rows, as the generator draws it
+            fall = snow.fall_px * 480 / case.height
+            snow = snow_flakes(width, height, fall_px=fall, mu_deg=snow.mu_deg)
         params = replace(
             fit_view(case.params, width / height),  # its view, at the set's frame size
             lens_blur_px=blur,
