@@ -137,7 +137,15 @@ def run_case(case: Case) -> dict[str, object]:
         scores.append(frame_score(s) if s is not None else math.nan)
         if s is not None and s.n:
             shapes.append(
-                (s.n, s.elongation, s.width_px, s.length_px, math.degrees(s.sigma), s.contrast)
+                (
+                    s.n,
+                    s.elongation,
+                    s.width_px,
+                    s.length_px,
+                    math.degrees(s.sigma),
+                    s.contrast,
+                    s.across,
+                )
             )
     return {
         "case": case.name,
@@ -195,17 +203,18 @@ def main(argv: list[str] | None = None) -> int:
         if args.features:
             print(f"\n{which}: per case, medians over frames with blobs")
             print(
-                "case | precip% | n | elong | width | length | sigma° | contrast | score | answers"
+                "case | precip% | n | elong | width | length | sigma° | contrast | across | score"
+                " | answers"
             )
             for res in results:
-                sh = np.array(res["shapes"]) if res["shapes"] else np.full((1, 6), np.nan)
+                sh = np.array(res["shapes"]) if res["shapes"] else np.full((1, 7), np.nan)
                 med = np.nanmedian(sh, axis=0)
                 sc = np.nanmedian(res["scores"]) if np.isfinite(res["scores"]).any() else math.nan
                 counts = {a: res["answers"].count(a) for a in ANSWERS}
                 print(
                     f"{res['case']:32s} {100 * np.mean(res['rain']):5.1f} "
                     f"{med[0]:5.0f} {med[1]:5.2f} {med[2]:5.2f} {med[3]:5.2f} {med[4]:5.1f} "
-                    f"{med[5]:5.1f} "
+                    f"{med[5]:5.1f} {med[6]:6.1f} "
                     f"{sc:+6.2f} {counts}"
                 )
         print_confusion(f"{which} set ({len(todo)} clips)", confusion(results))

@@ -11,12 +11,16 @@ and what it sees is enough to tell the two apart most of the time:
 
 A raindrop is also transparent and crosses a pixel in a small part of the exposure, so its
 streak is **faint**; a flake is white, opaque and slow: it is **bright** against the background.
+A soft lens spreads both, and a streak's mean brightness falls with its width: a blurred flake
+is as dim as a sharp streak. What the blur keeps is the brightness summed *across* the streak
+(its mean brightness times its width), so that is what is compared (departure 39).
 
 Per frame, :func:`streak_shape` reduces the blobs that vote for the fitted Gaussian (the rain
 blobs of section 6) to robust numbers: the median elongation a/b (eqs. 15-16), the fitted sigma
-(eqs. 23-25) and the median contrast over the background (eq. 8's difference, averaged over each
-blob by :func:`blob_contrast`). :func:`frame_score` scores each against its typical rain and snow
-values and averages; :func:`frame_vote` turns the score into a vote.
+(eqs. 23-25) and the median brightness summed across a blob: its contrast over the background
+(eq. 8's difference, averaged over each blob by :func:`blob_contrast`) times its width b (eq. 16).
+:func:`frame_score` scores each against its typical rain and snow values and averages;
+:func:`frame_vote` turns the score into a vote.
 :class:`PrecipitationTypeVote` keeps the votes of the last frames and says ``rain`` or ``snow``
 once a clear majority agrees, with hysteresis; ``unknown`` when the detector sees no
 precipitation, or the evidence is too thin or split.
@@ -33,6 +37,7 @@ from __future__ import annotations
 import math
 from collections import deque
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 
@@ -72,12 +77,22 @@ class PtypeParams:
     reference_height: int = 480
     #: The typical value of each feature in rain and in snow (medians over the tuning scenes'
     #: frames): the elongation a/b of the rain blobs, the fitted sigma (radians) and the blobs'
-    #: contrast over the background (grey levels). Each feature scores -1 at its rain value,
-    #: +1 at its snow value, linearly in its logarithm, clipped to +-``max_term``.
+    #: brightness. Each feature scores -1 at its rain value, +1 at its snow value, linearly in
+    #: its logarithm, clipped to +-``max_term``.
     elongation_rain: float = 2.8
     elongation_snow: float = 1.94
     sigma_rain: float = math.radians(14.6)
     sigma_snow: float = math.radians(30.7)
+    #: The blobs' brightness: ``"across"`` (departure 39), the median over them of their
+    #: contrast over the background times their width b (eq. 16) in the frame's pixels, the
+    #: brightness summed across them (grey levels x px), which a soft lens keeps; ``"mean"``,
+    #: their median contrast (grey levels; the releases before), which a soft lens dims until
+    #: a flake is as faint as a drop. One feature either way, so that a headlight's glare
+    #: cannot outvote the shape. The typical sums across were chosen on two tuning sets
+    #: (docs/method.md, 39), not taken as medians.
+    brightness: Literal["across", "mean"] = "across"
+    across_rain: float = 26.0
+    across_snow: float = 52.0
     contrast_rain: float = 21.0
     contrast_snow: float = 47.0
     max_term: float = 2.0
@@ -95,7 +110,8 @@ class PtypeParams:
     def __post_init__(self) -> None:
         _check(self.min_blobs >= 1, "min_blobs", "must be >= 1")
         _check(self.reference_height >= 1, "reference_height", "must be >= 1")
-        for key in ("elongation", "sigma", "contrast"):
+        _check(self.brightness in ("across", "mean"), "brightness", "must be across or mean")
+        for key in ("elongation", "sigma", "across", "contrast"):
             rain, snow = getattr(self, f"{key}_rain"), getattr(self, f"{key}_snow")
             _check(rain > 0 and snow > 0 and rain != snow, f"{key}_*", "must be > 0 and differ")
         _check(self.max_term > 0, "max_term", "must be > 0")
@@ -124,6 +140,9 @@ class StreakShape:
     sigma : radians, the fitted sigma of the frame's HOS (eq. 25), NaN without a valid fit
     contrast : median over the blobs of their mean brightness over the background, grey
         levels; NaN when unknown
+    across : median over the blobs of that brightness times their minor semi-axis b (eq. 16)
+        in the frame's own pixels: the brightness summed across the streak, grey levels x px,
+        which a blur spreads without changing; NaN when unknown
     """
 
     n: int
@@ -132,6 +151,7 @@ class StreakShape:
     length_px: float
     sigma: float
     contrast: float = math.nan
+    across: float = math.nan
 
 
 def blob_contrast(
@@ -193,13 +213,25 @@ def streak_shape(
     scale = reference_height / float(height)
     # b >= 2 sqrt(1/12) for any blob of whole pixels (moments.py adds a pixel's own moment)
     elongation = float(np.median(a / np.maximum(b, 1e-6)))
+    mean = across = math.nan
+    if contrast is not None:
+        contrast = np.asarray(contrast, dtype=np.float64)
+        if contrast.shape != a.shape:
+            raise ValueError(f"contrast must be {a.shape}, got {contrast.shape}")
+        if np.isfinite(contrast).any():
+            mean = float(np.nanmedian(contrast))
+            # in the frame's own pixels, not rescaled to the reference height as width_px
+            # is: the streaks seen are the drops near focus, a pixel or two wide at any frame
+            # size, and rescaled, 320x240 rain came out as bright as snow (docs/method.md, 39)
+            across = float(np.nanmedian(contrast * b))
     return StreakShape(
         n=n,
         elongation=elongation,
         width_px=float(np.median(b)) * scale,
         length_px=float(np.median(a)) * scale,
         sigma=float(sigma),
-        contrast=math.nan if contrast is None else float(np.nanmedian(contrast)),
+        contrast=mean,
+        across=across,
     )
 
 
@@ -209,14 +241,24 @@ def frame_score(shape: StreakShape, params: PtypeParams | None = None) -> float:
     Each feature x with typical values x_rain and x_snow scores
     ``(ln x - ln sqrt(x_rain x_snow)) / (ln sqrt(x_snow / x_rain))``: -1 at x_rain, +1 at
     x_snow, clipped to +-``max_term`` so that no single feature decides alone. The score is the
-    mean over the features the frame has (no valid fit: no sigma; no background: no contrast).
+    mean over the features the frame has (no valid fit: no sigma; no background: no
+    brightness). The brightness is ``shape.across`` or ``shape.contrast``, as
+    ``params.brightness`` says.
     """
     p = params or PtypeParams()
     if shape.n < p.min_blobs:
         return math.nan
-    x = np.array([shape.elongation, shape.sigma, shape.contrast], dtype=np.float64)
-    rain = np.array([p.elongation_rain, p.sigma_rain, p.contrast_rain])
-    snow = np.array([p.elongation_snow, p.sigma_snow, p.contrast_snow])
+    if p.brightness == "across":
+        bright = (shape.across, p.across_rain, p.across_snow)
+    else:
+        bright = (shape.contrast, p.contrast_rain, p.contrast_snow)
+    # each feature's (value, typical in rain, typical in snow)
+    rows = [
+        (shape.elongation, p.elongation_rain, p.elongation_snow),
+        (shape.sigma, p.sigma_rain, p.sigma_snow),
+        bright,
+    ]
+    x, rain, snow = np.array(rows, dtype=np.float64).T
     ok = np.isfinite(x) & (x > 0)
     if not ok[0]:
         return math.nan

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 
+import cv2
 import numpy as np
 import pytest
 
@@ -30,14 +31,18 @@ from hos.ptype import (
 P = PtypeParams()
 
 
-def _shape(elongation: float, sigma_deg: float, contrast: float, n: int = 50) -> StreakShape:
-    return StreakShape(n, elongation, 1.5, 1.5 * elongation, math.radians(sigma_deg), contrast)
+def _shape(
+    elongation: float, sigma_deg: float, across: float, n: int = 50, contrast: float = math.nan
+) -> StreakShape:
+    return StreakShape(
+        n, elongation, 1.5, 1.5 * elongation, math.radians(sigma_deg), contrast, across
+    )
 
 
 # -- the per-frame score ------------------------------------------------------------------------
 def test_typical_values_score_minus_one_and_plus_one() -> None:
-    rain = _shape(P.elongation_rain, math.degrees(P.sigma_rain), P.contrast_rain)
-    snow = _shape(P.elongation_snow, math.degrees(P.sigma_snow), P.contrast_snow)
+    rain = _shape(P.elongation_rain, math.degrees(P.sigma_rain), P.across_rain)
+    snow = _shape(P.elongation_snow, math.degrees(P.sigma_snow), P.across_snow)
     assert frame_score(rain) == pytest.approx(-1.0)
     assert frame_score(snow) == pytest.approx(1.0)
     assert (frame_vote(rain), frame_vote(snow)) == (RAIN, SNOW)
@@ -45,19 +50,37 @@ def test_typical_values_score_minus_one_and_plus_one() -> None:
     mid = _shape(
         math.sqrt(P.elongation_rain * P.elongation_snow),
         math.degrees(math.sqrt(P.sigma_rain * P.sigma_snow)),
-        math.sqrt(P.contrast_rain * P.contrast_snow),
+        math.sqrt(P.across_rain * P.across_snow),
     )
     assert frame_score(mid) == pytest.approx(0.0, abs=1e-12)
     assert frame_vote(mid) == UNKNOWN
 
 
 def test_each_feature_pulls_its_way_and_no_single_one_decides() -> None:
-    base = _shape(2.3, 21.0, 31.0)
-    assert frame_score(_shape(6.0, 21.0, 31.0)) < frame_score(base)  # longer, thinner: rain
-    assert frame_score(_shape(2.3, 35.0, 31.0)) > frame_score(base)  # wider spread: snow
-    assert frame_score(_shape(2.3, 21.0, 80.0)) > frame_score(base)  # brighter: snow
-    # a blinding contrast (headlights) is clipped: long parallel streaks still say rain
-    assert frame_vote(_shape(5.0, 8.0, 250.0)) == RAIN
+    base = _shape(2.3, 21.0, 37.0)
+    assert frame_score(_shape(6.0, 21.0, 37.0)) < frame_score(base)  # longer, thinner: rain
+    assert frame_score(_shape(2.3, 35.0, 37.0)) > frame_score(base)  # wider spread: snow
+    assert frame_score(_shape(2.3, 21.0, 90.0)) > frame_score(base)  # brighter: snow
+    # a blinding brightness (headlights) is clipped: long parallel streaks still say rain
+    assert frame_vote(_shape(5.0, 8.0, 600.0)) == RAIN
+
+
+def test_the_brightness_is_the_one_the_parameters_name() -> None:
+    # "across" (the default) reads the brightness summed across the blobs; "mean" (the
+    # releases before) their mean contrast: each ignores the other
+    mean = PtypeParams(brightness="mean")
+    blurred_flakes = _shape(  # dim, as a blurred flake is, but as bright summed across as snow
+        P.elongation_snow, math.degrees(P.sigma_snow), P.across_snow, contrast=P.contrast_rain
+    )
+    assert frame_score(blurred_flakes) == pytest.approx(1.0)
+    assert frame_score(blurred_flakes, mean) == pytest.approx((1 + 1 - 1) / 3)
+    only_mean = _shape(
+        P.elongation_snow, math.degrees(P.sigma_snow), math.nan, contrast=P.contrast_rain
+    )
+    assert frame_score(only_mean) == pytest.approx(1.0)  # no sum across: left out
+    assert frame_score(only_mean, mean) == pytest.approx(1 / 3)
+    with pytest.raises(ValueError, match="brightness"):
+        PtypeParams(brightness="peak")  # type: ignore[arg-type]
 
 
 def test_missing_features_are_left_out_and_thin_evidence_does_not_vote() -> None:
@@ -76,18 +99,30 @@ def test_streak_shape_medians_by_hand_and_scale_invariance() -> None:
     assert s.elongation == pytest.approx(np.median([6, 2, 8, 2]))  # 4.0
     assert (s.width_px, s.length_px) == (pytest.approx(1.0), pytest.approx(5.0))
     assert (s.sigma, s.contrast) == (0.2, pytest.approx(20.0))
-    # the same blobs filmed at twice the resolution: twice as long and wide, same everything
+    assert s.across == pytest.approx(np.median([10 * 1, 20 * 2, 30 * 1]))  # NaN left out
+    # the same blobs filmed at twice the resolution: twice as long and wide, the same shape
     s2 = streak_shape(2 * a, 2 * b, sigma=0.2, height=960, contrast=np.array([10, 20, 30, np.nan]))
     assert (s2.elongation, s2.width_px, s2.length_px) == pytest.approx(
         (s.elongation, s.width_px, s.length_px)
     )
+    # the brightness across is in the frame's own pixels (departure 39): a streak twice as
+    # wide and as bright carries twice as much
+    assert s2.across == pytest.approx(2 * s.across)
     few = PtypeParams(min_blobs=1)
     assert math.isfinite(frame_score(s, few))
-    assert frame_score(s2, few) == pytest.approx(frame_score(s, few))
+    mean = PtypeParams(min_blobs=1, brightness="mean")
+    assert frame_score(s2, mean) == pytest.approx(frame_score(s, mean))
+    # a streak as wide in pixels at any frame size (the drops near focus) scores alike
+    s3 = streak_shape(2 * a, b, sigma=0.2, height=960, contrast=np.array([10, 20, 30, np.nan]))
+    assert s3.across == pytest.approx(s.across)
     empty = streak_shape(np.zeros(0), np.zeros(0), sigma=math.nan, height=480)
     assert empty.n == 0 and math.isnan(empty.elongation)
     with pytest.raises(ValueError, match="one shape"):
         streak_shape(a, b[:2], sigma=0.1, height=480)
+    with pytest.raises(ValueError, match="contrast"):
+        streak_shape(a, b, sigma=0.1, height=480, contrast=np.ones(3))
+    unknown = streak_shape(a, b, sigma=0.1, height=480, contrast=np.full(4, np.nan))
+    assert math.isnan(unknown.contrast) and math.isnan(unknown.across)
 
 
 def test_blob_contrast_by_hand() -> None:
@@ -130,6 +165,50 @@ def test_rendered_streaks_and_flakes_vote_their_type_at_any_scale(scale: int) ->
     snow_shape = _rendered_shape(snow, shape, sigma=math.radians(30.0))
     assert frame_vote(rain_shape) == RAIN, rain_shape
     assert frame_vote(snow_shape) == SNOW, snow_shape
+
+
+def _blurred_shape(layer, shape: tuple[int, int], sigma: float, lens_px: float) -> StreakShape:
+    """As :func:`_rendered_shape`, the layer seen through a lens that blurs by ``lens_px``
+    (a Gaussian's standard deviation), its pixels found by eq. 8 (c = 3) as the detector
+    would, the size rule at its default bound."""
+    seen = (
+        cv2.GaussianBlur(layer.layer.astype(np.float32), (0, 0), lens_px)
+        if lens_px
+        else layer.layer
+    )
+    image = np.clip(seen + 0.5, 0, 255).astype(np.uint8)
+    blobs = find_blobs((image >= 3).astype(np.uint8) * 255)
+    area = (shape[0] / 480) ** 2
+    m = blobs.moments
+    keep = np.flatnonzero((m.area >= 4 * area) & (m.area <= 120 * area))
+    keep = keep[keep > 0]
+    contrast = blob_contrast(
+        image, np.zeros_like(image), blobs.index, blobs.pixel_labels, blobs.n_labels
+    )
+    return streak_shape(m.a[keep], m.b[keep], sigma=sigma, height=shape[0], contrast=contrast[keep])
+
+
+@pytest.mark.parametrize("lens_px", [0.0, 0.8, 1.2])
+def test_a_soft_lens_keeps_the_brightness_across_and_the_type(lens_px: float) -> None:
+    # departure 39: a blur spreads a flake and dims it, the mean contrast voting rain, but
+    # leaves what is summed across it. Windy snow (flakes drawn 3 px along a narrow spread):
+    # round-ish, bright; rain: long, faint. Both keep their type through the lens.
+    shape = (360, 640)
+    rain = render_streaks(shape, StreakParams(count=300, length_px=9.0, brightness=25.0), rng=3)
+    snow = render_snow(
+        shape, SnowParams(count=300, radius_px=(1.0, 2.0), blur_px=3.0, sigma_deg=12.0), rng=4
+    )
+    rain_shape = _blurred_shape(rain, shape, math.radians(11.0), lens_px)
+    snow_shape = _blurred_shape(snow, shape, math.radians(14.0), lens_px)
+    assert frame_vote(rain_shape) == RAIN, rain_shape
+    assert frame_vote(snow_shape) == SNOW, snow_shape
+    sharp = _blurred_shape(snow, shape, math.radians(14.0), 0.0)
+    # the mean contrast falls with the blur; the brightness across, far less
+    if lens_px >= 1.0:
+        assert snow_shape.contrast < 0.5 * sharp.contrast
+        assert snow_shape.across > 0.5 * sharp.across
+        mean = PtypeParams(brightness="mean")
+        assert frame_vote(snow_shape, mean) != SNOW  # what the releases before said
 
 
 # -- the temporal vote --------------------------------------------------------------------------
