@@ -4,6 +4,7 @@ whole detector on rendered rain, snow and clear weather."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import cv2
 import numpy as np
@@ -11,6 +12,7 @@ import pytest
 
 from drivers.simulator import Scene, SceneParams, SnowParams, StreakParams
 from drivers.simulator.demo import demo_params
+from drivers.simulator.families import snow_flakes
 from drivers.simulator.precipitation import render_snow, render_streaks
 from hos.blobs import find_blobs
 from hos.params import DetectorParams
@@ -290,3 +292,32 @@ def test_mixed_rain_and_snow_never_flips_between_the_two() -> None:
     said = [t for t in types if t != UNKNOWN]
     assert said, "the mixture is precipitation: something is said after the warm-up"
     assert len(set(said)) == 1, said
+
+
+def test_windy_snow_through_a_soft_lens_is_typed_snow() -> None:
+    # departure 39 on the whole detector: snow drifting at 80 deg in the wind (flakes drawn
+    # 3 px along a 12 deg spread) at 480x270 through a lens that blurs by 1.5 px. Its flakes
+    # are as dim as rain's streaks: their mean contrast leaves the type unknown, the
+    # brightness summed across them says snow. Fall not seen (flakes drawn anew each frame).
+    snow = replace(snow_flakes(480, 270), sigma_deg=12.0, blur_px=3.0, mu_deg=80.0)
+    params = SceneParams(
+        snow=snow,
+        lens_blur_px=1.5,
+        sensor_noise=1.5,
+        cars=2,
+        foliage_sway_px=1.0,
+        jpeg_quality=75,
+    )
+    scene = Scene(480, 270, seed=2, params=params)
+    frames = [scene.frame(i)[0] for i in range(200)]
+    types = {}
+    for brightness in ("across", "mean"):
+        det = HosDetector(
+            DetectorParams.from_dict({"precipitation_type": {"brightness": brightness}})
+        )
+        results = [det.process(f, i / 25) for i, f in enumerate(frames)][90:]
+        assert all(r.rain for r in results), brightness
+        types[brightness] = [r.precipitation_type for r in results]
+    assert types["across"] == [SNOW] * len(types["across"])
+    assert types["mean"].count(SNOW) < len(types["mean"]) // 2, types["mean"]
+    assert RAIN not in types["mean"]
