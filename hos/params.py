@@ -98,12 +98,11 @@ class SegmentationParams:
     #: noise / sqrt(line_length))``, the noise being the local standard deviation of that
     #: difference (its mean absolute value times sqrt(pi / 2) over ``line_window`` pixels
     #: square), and when it touches a candidate through such pixels: a faint streak's pixels,
-    #: under MOG2's per-pixel threshold, integrated along the streak. 0 (the default): off,
-    #: eq. 8 alone; 9 sees more faint rain (the real motorway in heavy rain 61 -> 67 % of its
-    #: frames, the street lamp 54 -> 100 %), but on the evaluation split it held rain over
-    #: a wet road after a shower (false rain on 1.2 % of its clear frames), and it costs
-    #: more (docs/method.md, departure 36).
-    line_length: int = 0
+    #: under MOG2's per-pixel threshold, integrated along the streak. 9 (the default since
+    #: departure 40): more faint rain seen (the real motorway in heavy rain 63 -> 88 % of its
+    #: frames with ``moved_edge_px = 2``, which keeps the slivers of edges it would grow from
+    #: voting); 0: off, eq. 8 alone, and a little cheaper (docs/method.md, departures 36, 40).
+    line_length: int = 9
     line_orientations: int = 12
     line_k: float = 6.0
     line_window: int = 31
@@ -530,8 +529,10 @@ class RobustnessParams:
     #: edge of the background under it, moved across its length by up to this many pixels,
     #: would give takes no part in the HOS (``hos.blobs.moved_edge``): the slivers that a
     #: camera's vibration, too small or too brief for the motion estimate, cuts along every
-    #: pole, post and rail, all oriented alike (docs/method.md, departure 30). 0: off.
-    moved_edge_px: float = 1.0
+    #: pole, post and rail, all oriented alike (docs/method.md, departure 30), and the
+    #: flicker a codec leaves along such edges, which the line rule (departure 36) would
+    #: complete into streaks: 2 pixels since departure 40 (1 before). 0: off.
+    moved_edge_px: float = 2.0
 
     def __post_init__(self) -> None:
         _check(self.warmup_frames >= 0, "warmup_frames", "must be >= 0")
