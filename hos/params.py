@@ -101,7 +101,8 @@ class SegmentationParams:
     #: under MOG2's per-pixel threshold, integrated along the streak. 9 (the default since
     #: departure 40): more faint rain seen (the real motorway in heavy rain 63 -> 88 % of its
     #: frames with ``moved_edge_px = 2``, which keeps the slivers of edges it would grow from
-    #: voting); 0: off, eq. 8 alone, and a little cheaper (docs/method.md, departures 36, 40).
+    #: voting); 0: off, eq. 8 alone, and cheaper (the detector alone took 1.45-1.64 times as
+    #: long with it on, on two real clips; docs/method.md, departures 36, 40).
     line_length: int = 9
     line_orientations: int = 12
     line_k: float = 6.0
