@@ -678,7 +678,8 @@ def _short(value: object) -> str:
 def detector_params(config: dict[str, Any]) -> DetectorParams:
     """Detector parameters from the optional ``[detector]`` table of the configuration.
 
-    Sub-tables ``segmentation``, ``histogram``, ``mixture``, ``decision``, ``robustness`` hold
+    Sub-tables ``segmentation``, ``histogram``, ``mixture``, ``decision``, ``robustness``,
+    ``precipitation_type`` hold
     the fields of :mod:`hos.params` (angles as ``*_deg`` keys). Values are checked against the
     field types (an int is accepted for a float).
 

@@ -13,12 +13,14 @@ A raindrop is also transparent and crosses a pixel in a small part of the exposu
 streak is **faint**; a flake is white, opaque and slow: it is **bright** against the background.
 A soft lens spreads both, and a streak's mean brightness falls with its width: a blurred flake
 is as dim as a sharp streak. What the blur keeps is the brightness summed *across* the streak
-(its mean brightness times its width), so that is what is compared (departure 39).
+(its mean brightness times its width), so that is what is compared (departure 39), the
+width measured as the minor semi-axis b of eq. 16.
 
 Per frame, :func:`streak_shape` reduces the blobs that vote for the fitted Gaussian (the rain
 blobs of section 6) to robust numbers: the median elongation a/b (eqs. 15-16), the fitted sigma
 (eqs. 23-25) and the median brightness summed across a blob: its contrast over the background
-(eq. 8's difference, averaged over each blob by :func:`blob_contrast`) times its width b (eq. 16).
+(eq. 8's difference, averaged over each blob by :func:`blob_contrast`) times its minor
+semi-axis b (eq. 16).
 :func:`frame_score` scores each against its typical rain and snow values and averages;
 :func:`frame_vote` turns the score into a vote.
 :class:`PrecipitationTypeVote` keeps the votes of the last frames and says ``rain`` or ``snow``
@@ -84,11 +86,11 @@ class PtypeParams:
     sigma_rain: float = math.radians(14.6)
     sigma_snow: float = math.radians(30.7)
     #: The blobs' brightness: ``"across"`` (departure 39), the median over them of their
-    #: contrast over the background times their width b (eq. 16) in the frame's pixels, the
-    #: brightness summed across them (grey levels x px), which a soft lens keeps; ``"mean"``,
-    #: their median contrast (grey levels; the releases before), which a soft lens dims until
-    #: a flake is as faint as a drop. One feature either way, so that a headlight's glare
-    #: cannot outvote the shape. The typical sums across were chosen on two tuning sets
+    #: contrast over the background times their minor semi-axis b (eq. 16) in the frame's
+    #: pixels, the brightness summed across them (grey levels x px), which a soft lens keeps;
+    #: ``"mean"``, their median contrast (grey levels; the releases before), which a soft lens
+    #: dims until a flake is as faint as a drop. One feature either way, so that a headlight's
+    #: glare cannot outvote the shape. The typical sums across were chosen on two tuning sets
     #: (docs/method.md, 39), not taken as medians.
     brightness: Literal["across", "mean"] = "across"
     across_rain: float = 26.0
