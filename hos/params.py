@@ -15,6 +15,7 @@ from typing import Any, Literal
 from .ptype import PtypeParams
 
 __all__ = [
+    "ANGLE_PARAMETERS",
     "DecisionParams",
     "DetectorParams",
     "HistogramParams",
@@ -585,6 +586,24 @@ class RobustnessParams:
         _check(self.moved_edge_px >= 0, "moved_edge_px", "must be >= 0")
 
 
+#: The parameters that are angles (radians in the code): a configuration may give each in
+#: degrees with its name and ``_deg``. No other key takes ``_deg``.
+ANGLE_PARAMETERS = frozenset(
+    {
+        "dtheta_min",
+        "dtheta_max",
+        "sigma_min",
+        "pool_sigma_max",
+        "spread_sigma",
+        "sigma_max",
+        "vertical",
+        "max_tilt",
+        "sigma_rain",
+        "sigma_snow",
+    }
+)
+
+
 @dataclass(frozen=True)
 class DetectorParams:
     """All detector parameters, grouped as the paper's sections are."""
@@ -600,7 +619,8 @@ class DetectorParams:
     @classmethod
     def from_dict(cls, data: dict[str, Any] | None) -> DetectorParams:
         """Build from ``{"segmentation": {...}, ...}``; angles given in degrees where the key
-        ends in ``_deg``. Unknown keys raise ``ValueError`` naming the key."""
+        ends in ``_deg`` (:data:`ANGLE_PARAMETERS` only: ``across_rain_deg`` is a mistake, not
+        26 degrees). Unknown keys raise ``ValueError`` naming the key."""
         if not data:
             return cls()
         groups = {f.name: f for f in fields(cls)}
@@ -615,6 +635,10 @@ class DetectorParams:
                 name = key[:-4] if key.endswith("_deg") else key
                 if name not in known:
                     raise ValueError(f"detector.{group}.{key}: unknown parameter")
+                if key.endswith("_deg") and name not in ANGLE_PARAMETERS:
+                    raise ValueError(
+                        f"detector.{group}.{key}: {name} is not an angle; give it without _deg"
+                    )
                 kwargs[name] = math.radians(value) if key.endswith("_deg") else value
             try:
                 built[group] = replace(default, **kwargs)

@@ -3,6 +3,7 @@ whole detector on rendered rain, snow and clear weather."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import replace
 
@@ -15,7 +16,7 @@ from drivers.simulator.demo import demo_params
 from drivers.simulator.families import snow_flakes
 from drivers.simulator.precipitation import render_snow, render_streaks
 from hos.blobs import find_blobs
-from hos.params import DetectorParams
+from hos.params import ANGLE_PARAMETERS, DetectorParams
 from hos.pipeline import HosDetector
 from hos.ptype import (
     RAIN,
@@ -248,6 +249,12 @@ def test_parameters_from_the_config_and_bad_ones_name_the_key() -> None:
     assert HosDetector(params)._ptype.params is params.precipitation_type
     with pytest.raises(ValueError, match=r"^detector\.precipitation_type\.min_votes: "):
         DetectorParams.from_dict({"precipitation_type": {"window_frames": 5, "min_votes": 6}})
+    # only angles take degrees: a mistyped suffix is refused, not read as radians
+    with pytest.raises(ValueError, match=r"across_rain_deg: across_rain is not an angle"):
+        DetectorParams.from_dict({"precipitation_type": {"across_rain_deg": 26.0}})
+    groups = [getattr(DetectorParams(), f.name) for f in dataclasses.fields(DetectorParams)]
+    names = {f.name for g in groups for f in dataclasses.fields(g)}
+    assert ANGLE_PARAMETERS <= names  # every angle named is a parameter
     with pytest.raises(ValueError, match=r"^sigma_\*: must be > 0 and differ"):
         PtypeParams(sigma_rain=0.3, sigma_snow=0.3)
 

@@ -48,6 +48,10 @@ def test_defaults_are_the_demo() -> None:
         ),
         ({"detector": {"decision": {"pi_rain": "high"}}}, "detector.decision.pi_rain:"),
         ({"detector": {"bogus": {}}}, "detector.bogus: unknown parameter group"),
+        (
+            {"detector": {"precipitation_type": {"across_rain_deg": 26}}},
+            "detector.precipitation_type.across_rain_deg: across_rain is not an angle",
+        ),
         ({"zenoh": {"mode": "server"}}, "zenoh.mode:"),
         ({"zenoh": {"config_file": "/no/such/zenoh.json5"}}, "zenoh.config_file:"),
         ({"recording": {"budget_mb": -5}}, "recording.budget_mb:"),
