@@ -3,9 +3,8 @@ whole detector on rendered rain, snow and clear weather."""
 
 from __future__ import annotations
 
-import dataclasses
 import math
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import cv2
 import numpy as np
@@ -139,18 +138,26 @@ def test_blob_contrast_by_hand() -> None:
     assert image[0, 0] == 10 and background[0, 1] == 20  # inputs untouched
 
 
-def _rendered_shape(layer, shape: tuple[int, int], sigma: float) -> StreakShape:
-    """What the detector's steps 3-4 would see of a precipitation layer on a black street."""
-    blobs = find_blobs(layer.mask.astype(np.uint8) * 255)
-    area = (shape[0] / 480) ** 2
+def _shape_of(
+    image: np.ndarray, mask: np.ndarray, height: int, sigma: float, max_area: int
+) -> StreakShape:
+    """What the detector's steps 3-4 would see of ``image`` (the precipitation on a black
+    street) with ``mask`` as its candidates and the size rule's bound ``max_area``."""
+    blobs = find_blobs(mask.astype(np.uint8) * 255)
+    area = (height / 480) ** 2
     m = blobs.moments
-    keep = np.flatnonzero((m.area >= 4 * area) & (m.area <= 50 * area))
+    keep = np.flatnonzero((m.area >= 4 * area) & (m.area <= max_area * area))
     keep = keep[keep > 0]
-    image = np.clip(layer.layer + 0.5, 0, 255).astype(np.uint8)
     contrast = blob_contrast(
         image, np.zeros_like(image), blobs.index, blobs.pixel_labels, blobs.n_labels
     )
-    return streak_shape(m.a[keep], m.b[keep], sigma=sigma, height=shape[0], contrast=contrast[keep])
+    return streak_shape(m.a[keep], m.b[keep], sigma=sigma, height=height, contrast=contrast[keep])
+
+
+def _rendered_shape(layer, shape: tuple[int, int], sigma: float) -> StreakShape:
+    """A precipitation layer as drawn, its drawn pixels the candidates, the published bound."""
+    image = np.clip(layer.layer + 0.5, 0, 255).astype(np.uint8)
+    return _shape_of(image, layer.mask, shape[0], sigma, max_area=50)
 
 
 @pytest.mark.parametrize("scale", [1, 2])
@@ -180,15 +187,7 @@ def _blurred_shape(layer, shape: tuple[int, int], sigma: float, lens_px: float) 
         else layer.layer
     )
     image = np.clip(seen + 0.5, 0, 255).astype(np.uint8)
-    blobs = find_blobs((image >= 3).astype(np.uint8) * 255)
-    area = (shape[0] / 480) ** 2
-    m = blobs.moments
-    keep = np.flatnonzero((m.area >= 4 * area) & (m.area <= 120 * area))
-    keep = keep[keep > 0]
-    contrast = blob_contrast(
-        image, np.zeros_like(image), blobs.index, blobs.pixel_labels, blobs.n_labels
-    )
-    return streak_shape(m.a[keep], m.b[keep], sigma=sigma, height=shape[0], contrast=contrast[keep])
+    return _shape_of(image, image >= 3, shape[0], sigma, max_area=120)
 
 
 @pytest.mark.parametrize("lens_px", [0.0, 0.8, 1.2])
@@ -252,8 +251,8 @@ def test_parameters_from_the_config_and_bad_ones_name_the_key() -> None:
     # only angles take degrees: a mistyped suffix is refused, not read as radians
     with pytest.raises(ValueError, match=r"across_rain_deg: across_rain is not an angle"):
         DetectorParams.from_dict({"precipitation_type": {"across_rain_deg": 26.0}})
-    groups = [getattr(DetectorParams(), f.name) for f in dataclasses.fields(DetectorParams)]
-    names = {f.name for g in groups for f in dataclasses.fields(g)}
+    groups = [getattr(DetectorParams(), f.name) for f in fields(DetectorParams)]
+    names = {f.name for g in groups for f in fields(g)}
     assert ANGLE_PARAMETERS <= names  # every angle named is a parameter
     with pytest.raises(ValueError, match=r"^sigma_\*: must be > 0 and differ"):
         PtypeParams(sigma_rain=0.3, sigma_snow=0.3)
