@@ -26,8 +26,12 @@ Two exceptions keep what the rule must not remove:
   to a pixel or two lower in the next frame. When the pairs found again fall, that is when
   over the last ``frames`` frames the pairs displaced down the camera's vertical outnumber
   those displaced up by ``fall_z`` standard deviations (the statistic of ``hos/fall.py``,
-  here for steps of at least ``_SLOW_STEP`` px), the rule stands aside. Clutter sways both
-  ways.
+  here for steps of at least ``_SLOW_STEP`` px), the rule stands aside for the blobs found
+  lower down, within the down cone that the statistic counts (``lower_only``; departure
+  41). Clutter sways both ways, and what it shows beside or above where it was is still
+  left out: a crown bent down by a gust makes the pairs fall too (real leaves in rain,
+  where standing aside for every blob let a hundred fragments a frame vote). With
+  ``lower_only=False`` the rule stands aside for every blob, as before departure 41.
 """
 
 from __future__ import annotations
@@ -64,10 +68,18 @@ class FoundAgain:
     frames : window of the fall test, in frames (>= 1)
     fall_z : the pairs found again fall when their z reaches this; 0: they never do
     vertical : the camera's vertical as an orientation in [0, pi) (``decision.vertical``)
+    lower_only : while they fall, only the blobs found lower down count as not found again
+        (True, departure 41); False: none does
     """
 
     def __init__(
-        self, *, radius: float, frames: int = 25, fall_z: float = 8.0, vertical: float = math.pi / 2
+        self,
+        *,
+        radius: float,
+        frames: int = 25,
+        fall_z: float = 8.0,
+        vertical: float = math.pi / 2,
+        lower_only: bool = True,
     ) -> None:
         if not radius > 0:
             raise ValueError("radius must be > 0")
@@ -75,6 +87,7 @@ class FoundAgain:
             raise ValueError("frames must be >= 1")
         self.radius = float(radius)
         self.fall_z = float(fall_z)
+        self.lower_only = bool(lower_only)
         self.vertical = float(vertical)
         self._before = None  # the last frame's k-d tree (scipy), or None
         self._counts: deque[tuple[int, int]] = deque(maxlen=int(frames))
@@ -112,6 +125,7 @@ class FoundAgain:
         found = np.zeros(len(points), dtype=bool)
         tree = kd_tree(points)  # scipy's, imported only when the rule is on
         down = up = 0
+        lower = np.zeros(len(points), dtype=bool)
         self.flicker = self._flicker(tree)
         self._voted = None
         if self._before is not None and tree is not None:
@@ -120,6 +134,7 @@ class FoundAgain:
             d = points[found] - self._before.data[j[found]]
             is_down, is_up, _ = down_up(d, self.vertical, min_step=_SLOW_STEP, cone=_CONE)
             down, up = int(np.count_nonzero(is_down)), int(np.count_nonzero(is_up))
+            lower[np.flatnonzero(found)[is_down]] = True
         if len(self._counts) == self._counts.maxlen:
             old_down, old_up = self._counts[0]
             self._down -= old_down
@@ -129,7 +144,11 @@ class FoundAgain:
         self._up += up
         self._before = tree
         if self.falling:
-            found[:] = False  # slow snow: what is found again lower down is the flakes
+            # slow snow: what is found again lower down is the flakes
+            if self.lower_only:
+                found &= ~lower
+            else:
+                found[:] = False
             self.flicker = None
         return found
 

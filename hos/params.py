@@ -523,10 +523,13 @@ class RobustnessParams:
     #: length between frames) and takes no part in the HOS (``hos/again.py``): foliage and
     #: hedges flickering with the sway, fragments creeping along a lane. Not while the blobs
     #: found again fall, by ``found_again_fall_z`` standard deviations over
-    #: ``found_again_frames`` frames (slow snow). 0: the paper's HOS of every blob.
+    #: ``found_again_frames`` frames (slow snow), for those found lower down (the flakes);
+    #: ``found_again_fall_lower = False``: for every blob then, as before departure 41 (what
+    #: a gust bends down sways beside and above too). 0: the paper's HOS of every blob.
     found_again_radius: float = 3.0
     found_again_frames: int = 25
     found_again_fall_z: float = 8.0
+    found_again_fall_lower: bool = True
     #: Beyond the paper: a streak-sized blob whose brightening over the background is what an
     #: edge of the background under it, moved across its length by up to this many pixels,
     #: would give takes no part in the HOS (``hos.blobs.moved_edge``): the slivers that a

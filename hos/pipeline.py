@@ -1355,6 +1355,7 @@ class HosDetector:
                 frames=rob.found_again_frames,
                 fall_z=rob.found_again_fall_z,
                 vertical=self.params.decision.vertical,
+                lower_only=rob.found_again_fall_lower,
             )
         if not comparable:
             self._again.reset()
