@@ -1375,8 +1375,9 @@ class HosDetector:
         if self._again is None:
             return False
         if self._again.falling:
-            # What is found again falls: slow snow, not a crown's leaves. The rule stands
-            # aside, and the evidence behind its share fades, so that the share is measured
+            # What is found again falls: slow snow (or a crown bent down by a gust, whose
+            # blobs found beside or above are left out all the same, departure 41). The rule
+            # stands aside, and the evidence behind its share fades, so that the share is measured
             # afresh when the fall ends (frozen, a share above the threshold held every fit
             # off for as long as the snow was seen to fall).
             self._flicker_sums *= 1.0 - 1.0 / dp.flicker_frames

@@ -88,7 +88,9 @@ def test_slow_snow_is_found_again_until_it_is_seen_to_fall() -> None:
         found.append(rule.update(p).mean())
     assert found[0] > 0.9  # at first, not yet known to fall
     assert rule.falling and rule.z > 20
-    assert found[-1] <= 0.05  # nearly all found lower down (the rest off the down cone)
+    # nearly all found lower down (since departure 41 those off the down cone, or nearest to
+    # another flake, stay found: 1 of 60 here, up to 7 at other seeds)
+    assert found[-1] <= 0.15
     rule.reset()
     assert rule.z == 0.0 and not rule.falling
 
@@ -108,7 +110,7 @@ def test_once_snow_is_seen_to_fall_only_what_was_found_lower_votes(lower_only: b
         step = rng.uniform(-1.5, 1.5, clutter.shape)
         found = rule.update(np.concatenate((flakes, clutter + step)))
     assert rule.falling
-    assert found[:60].mean() <= 0.05  # the flakes vote
+    assert found[:60].mean() <= 0.2  # the flakes vote (1 of 60 here; up to 10 at other seeds)
     # clutter found again in the down cone votes with them (about a fifth); the rest is out
     assert found[60:].mean() >= 0.6 if lower_only else not found[60:].any()
 
@@ -282,30 +284,32 @@ def test_creeping_fragments_alone_are_not_rain() -> None:
     assert said == 0.0
 
 
-@pytest.mark.parametrize("lower_only", [True, False])
-def test_rain_behind_fragments_sinking_in_a_gust_is_still_seen(lower_only: bool) -> None:
+def test_rain_behind_fragments_sinking_in_a_gust_is_still_seen() -> None:
     """200 fragments creeping as above and sinking 0.8 px a frame on top (foliage bent down by
     a gust, real leaves in rain: docs/method.md, departure 41): the pairs found again fall,
-    and the rule stands aside. Only what was found lower down then votes, and the rain is
-    seen; the control (every fragment found again voting, the rule before) loses it. The
-    fall's own verdict (departure 22) is off: a field of specks sinking alike is what it
-    takes for snow."""
-    frames = list(_frames(FRAMES, rain=40, clutter=200, drift=0.8))
-    det = HosDetector(
-        DetectorParams.from_dict(
-            {"robustness": {"found_again_fall_lower": lower_only}, "decision": {"fall_z": 0.0}}
+    and the rule stands aside. Only what was found lower down then votes: the rain is seen
+    on every frame, the fragments alone on none. The control (every fragment found again
+    voting, the rule before) lets 1.6 times as many blobs vote and its Pi falls by 0.11-0.16
+    (seeds 0-7; under the threshold at this seed). The fall's own verdict (departure 22) is
+    off: a field of specks sinking alike is what it takes for snow."""
+
+    def run(frames, lower_only: bool):
+        settings = {"robustness": {"found_again_fall_lower": lower_only}, "decision": {"fall_z": 0}}
+        det = HosDetector(DetectorParams.from_dict(settings))
+        results = [det.process(gray, i / 25.0) for i, gray in enumerate(frames)][100:]
+        assert det._again is not None and det._again.falling
+        return (
+            float(np.mean([r.rain for r in results])),
+            float(np.mean([r.pi_smoothed for r in results])),
+            float(np.median([r.n_blobs for r in results])),
         )
-    )
-    said = [det.process(gray, i / 25.0).rain for i, gray in enumerate(frames)][100:]
-    assert det._again is not None and det._again.falling
-    if lower_only:
-        assert np.mean(said) >= 0.95
-        # ... and what the sinking fragments leave to vote alone is not rain
-        det = HosDetector(det.params)
-        alone = _frames(FRAMES, rain=0, clutter=200, drift=0.8)
-        assert not any([det.process(g, i / 25.0).rain for i, g in enumerate(alone)][100:])
-    else:
-        assert np.mean(said) <= 0.2
+
+    frames = list(_frames(FRAMES, rain=40, clutter=200, drift=0.8))
+    said, pi, voting = run(frames, True)
+    _, pi_before, voting_before = run(frames, False)
+    assert said >= 0.95
+    assert pi >= pi_before + 0.08 and voting <= 0.75 * voting_before
+    assert not run(_frames(FRAMES, rain=0, clutter=200, drift=0.8), True)[0]
 
 
 @pytest.fixture(scope="module")
