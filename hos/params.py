@@ -408,6 +408,12 @@ class RobustnessParams:
     #: was 1.4-2.3 (real fog with a swing, the benchmark's rain drawn over it). 0: never
     #: checked.
     motion_explained: float = 1.2
+    #: Beyond the paper (departure 42): a frame whose mean grey level (exposure corrected,
+    #: plus one) is more than this many times the motion reference's, or less than its
+    #: inverse, is lit otherwise than the view the reference learnt (a lightning flash, the
+    #: dark between flashes): no offset is read from it (0), nor a step from the frame
+    #: before lit otherwise. 0: always read.
+    motion_light_ratio: float = 1.5
     #: Beyond the paper: what moves often in place (a tree's crown in the wind, a flag, a
     #: busy lane) takes no part in the camera-offset fit either. A reduced pixel in the
     #: background model's foreground on more than ``max(mover_rate, mover_ratio * median)`` of
@@ -548,6 +554,11 @@ class RobustnessParams:
         _check(self.persistence_local_px > 0, "persistence_local_px", "must be > 0")
         _check(self.reference_frames >= 1, "reference_frames", "must be >= 1")
         _check(self.motion_explained >= 0, "motion_explained", "must be >= 0")
+        _check(
+            self.motion_light_ratio == 0 or self.motion_light_ratio > 1,
+            "motion_light_ratio",
+            "must be 0 or > 1",
+        )
         _check(
             self.motion_gradient in ("shorter", "reference", "mean"),
             "motion_gradient",

@@ -202,6 +202,15 @@ def offset_explains(
     return n < 2 or 2 * explained >= n
 
 
+def _lit_otherwise(frame: np.ndarray, reference: np.ndarray, ratio: float) -> bool:
+    """Whether ``frame``'s mean grey level (plus one) is more than ``ratio`` times
+    ``reference``'s or less than its inverse (departure 42); never with ``ratio`` 0."""
+    if ratio <= 0:
+        return False
+    now, before = float(frame.mean()) + 1.0, float(reference.mean()) + 1.0
+    return max(now / before, before / now) > ratio
+
+
 def offset_mismatch(
     reference: np.ndarray,
     frame: np.ndarray,
@@ -1130,6 +1139,13 @@ class HosDetector:
             self._ref_texture = None
             self._fg_small = None
             return 0.0, (0.0, 0.0)
+        if _lit_otherwise(small, self._ref_small, rob.motion_light_ratio):
+            # Departure 42: lit otherwise than the view the reference learnt (a flash, the
+            # dark between flashes): no offset can be read. The reference learns on, so that
+            # a lasting change of light (the scene relearnt) is registered again.
+            rate = _RELEARN_RATE if self._relearn > 0 else 1.0 / rob.reference_frames
+            cv2.accumulateWeighted(small, self._ref_small, rate)
+            return 0.0, (0.0, 0.0)
         translation = global_translation_jit if self.compiled else global_translation
         exclude = self._fg_small
         if self._movers is not None:
@@ -1234,7 +1250,12 @@ class HosDetector:
         camera is ``still`` where it was learnt (it cannot be panning): no cost on a fixed
         camera."""
         prev, self._prev_small = self._prev_small, small
-        if still or prev is None or prev.shape != small.shape:
+        if (
+            still
+            or prev is None
+            or prev.shape != small.shape
+            or _lit_otherwise(small, prev, self.params.robustness.motion_light_ratio)
+        ):
             self._steps.clear()
             return 0.0
         translation = global_translation_jit if self.compiled else global_translation
