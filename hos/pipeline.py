@@ -1143,8 +1143,7 @@ class HosDetector:
             # Departure 42: lit otherwise than the view the reference learnt (a flash, the
             # dark between flashes): no offset can be read. The reference learns on, so that
             # a lasting change of light (the scene relearnt) is registered again.
-            rate = _RELEARN_RATE if self._relearn > 0 else 1.0 / rob.reference_frames
-            cv2.accumulateWeighted(small, self._ref_small, rate)
+            self._learn_reference(small)
             return 0.0, (0.0, 0.0)
         translation = global_translation_jit if self.compiled else global_translation
         exclude = self._fg_small
@@ -1181,12 +1180,16 @@ class HosDetector:
                 break  # nothing shorter: the other fit is not needed
         if (dx or dy) and not self._explains(self._ref_small, small, dx, dy, self._movers):
             dx = dy = 0.0
-        # While the background model relearns the view (after a scene change: a knock, lights),
-        # the reference learns as fast as the model: both must describe the same view.
-        rate = _RELEARN_RATE if self._relearn > 0 else 1.0 / rob.reference_frames
-        cv2.accumulateWeighted(small, self._ref_small, rate)
+        self._learn_reference(small)
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
+
+    def _learn_reference(self, small: np.ndarray) -> None:
+        """Step the camera-offset reference towards ``small``. While the background model
+        relearns the view (after a scene change: a knock, lights), the reference learns as fast
+        as the model: both must describe the same view."""
+        rate = _RELEARN_RATE if self._relearn > 0 else 1.0 / self.params.robustness.reference_frames
+        cv2.accumulateWeighted(small, self._ref_small, rate)
 
     def _coarse_pair(
         self, small: np.ndarray, exclude: np.ndarray | None
@@ -1398,9 +1401,9 @@ class HosDetector:
         if self._again.falling:
             # What is found again falls: slow snow (or a crown bent down by a gust, whose
             # blobs found beside or above are left out all the same, departure 41). The rule
-            # stands aside, and the evidence behind its share fades, so that the share is measured
-            # afresh when the fall ends (frozen, a share above the threshold held every fit
-            # off for as long as the snow was seen to fall).
+            # stands aside, and the evidence behind its share fades, so that the share is
+            # measured afresh when the fall ends (frozen, a share above the threshold held
+            # every fit off for as long as the snow was seen to fall).
             self._flicker_sums *= 1.0 - 1.0 / dp.flicker_frames
             return False
         flicker = self._again.flicker
