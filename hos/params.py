@@ -257,6 +257,12 @@ class DecisionParams:
     fall_z: float = 8.0
     fall_frames: int = 25
     fall_radius: float = 9.0
+    #: Beyond the paper (docs/method.md, departure 43): the type remembers the fall. While
+    #: the type's fall z is at least this share of ``fall_z`` (above every rain and clear
+    #: frame of the tuning split: 3.3 and 3.5 at most), a frame does not vote rain, and votes
+    #: snow once snow is said: a fall that weakens under the verdict's threshold is still no
+    #: rain's. 0: the fall votes only while its verdict is on (before departure 43).
+    fall_type_hold: float = 0.5
     #: Beyond the paper (docs/method.md, departure 37): while a cloud's shade is corrected,
     #: the small blobs in the blocks where the frame's local level is still off the
     #: background's by eq. 8's c or more (departure 32's medians), or next to them, do not
@@ -330,6 +336,7 @@ class DecisionParams:
         _check(self.fall_z >= 0, "fall_z", "must be >= 0")
         _check(self.fall_frames >= 1, "fall_frames", "must be >= 1")
         _check(self.fall_radius > 0, "fall_radius", "must be > 0")
+        _check(0 <= self.fall_type_hold <= 1, "fall_type_hold", "must be in [0, 1]")
         _check(self.collapse_frames >= 1, "collapse_frames", "must be >= 1")
         _check(0 <= self.flicker_share <= 1, "flicker_share", "must be in [0, 1]")
         _check(self.flicker_frames >= 1, "flicker_frames", "must be >= 1")

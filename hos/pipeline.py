@@ -67,7 +67,15 @@ from .mixture import fit_mixture
 from .moments import orientation_uncertainty
 from .motion import exposure_gain, global_translation, reduce
 from .params import DecisionParams, DetectorParams
-from .ptype import SNOW, PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
+from .ptype import (
+    RAIN,
+    SNOW,
+    UNKNOWN,
+    PrecipitationTypeVote,
+    blob_contrast,
+    frame_vote,
+    streak_shape,
+)
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .shade import apply_field, shade_field, upsample
 from .smoothing import Dwell, ParameterSmoother
@@ -991,9 +999,11 @@ class HosDetector:
             if self._fall_type is None:
                 self._fall_type = self._fall.fork()
             fall_points &= ~_in_cells(applied, float(seg.scale), mom.x0, mom.y0)
-            self._fall_type.update(judged, radius, mom.x0, mom.y0, fall_points)
+            type_z, _ = self._fall_type.update(judged, radius, mom.x0, mom.y0, fall_points)
             fall_points &= ~_in_cells(seen, float(seg.scale), mom.x0, mom.y0)
         fall_z, fall_px = self._fall.update(judged, radius, mom.x0, mom.y0, fall_points)
+        if self._fall_type is None:
+            type_z = fall_z
         rain = (smoothed.rain or self._fall.falling) and state == State.OK
 
         # 7. rain pixels
@@ -1039,6 +1049,10 @@ class HosDetector:
             # drop falls further between two frames than its streak is long, and is not found
             # again lower down; docs/method.md, "Precipitation type")
             vote = SNOW
+        elif state == State.OK and 0 < dp.fall_type_hold * dp.fall_z <= type_z:
+            # departure 43: the fall weakened under the verdict's threshold but is still
+            # above anything rain gives: no rain vote, and snow said stays snow
+            vote = SNOW if self._ptype.current == SNOW else (UNKNOWN if vote == RAIN else vote)
         precipitation_type = self._ptype.update(vote, precipitating=rain)
 
         # 8. intensity
