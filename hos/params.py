@@ -421,6 +421,12 @@ class RobustnessParams:
     #: dark between flashes): no offset is read from it (0), nor a step from the frame
     #: before lit otherwise. 0: always read.
     motion_light_ratio: float = 1.5
+    #: ... and (departure 44) the reference does not learn from such a frame: a light that
+    #: lasts this many frames in a row is the view's, and the reference takes the frame as
+    #: it is; after a step between two frames lit otherwise (a flash), no step is read for
+    #: as many frames (the clouds a flash lights move, not the camera). 0: the reference
+    #: learns from every frame and the steps are read at once (departure 42 alone).
+    motion_light_frames: int = 25
     #: Beyond the paper: what moves often in place (a tree's crown in the wind, a flag, a
     #: busy lane) takes no part in the camera-offset fit either. A reduced pixel in the
     #: background model's foreground on more than ``max(mover_rate, mover_ratio * median)`` of
@@ -566,6 +572,7 @@ class RobustnessParams:
             "motion_light_ratio",
             "must be 0 or > 1",
         )
+        _check(self.motion_light_frames >= 0, "motion_light_frames", "must be >= 0")
         _check(
             self.motion_gradient in ("shorter", "reference", "mean"),
             "motion_gradient",

@@ -420,6 +420,8 @@ class HosDetector:
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._settling = 0  # frames left to hold after the camera was last moved
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
+        self._lit_frames = 0  # frames in a row lit otherwise than the reference (dep. 44)
+        self._flash = 0  # frames left without a frame-to-frame step after a flash (dep. 44)
         # the last frames analysed, newest first: for blobs copied from them (stale_level)
         self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
         self._repeats = 0  # frames in a row that repeated the one before
@@ -1155,10 +1157,19 @@ class HosDetector:
             return 0.0, (0.0, 0.0)
         if _lit_otherwise(small, self._ref_small, rob.motion_light_ratio):
             # Departure 42: lit otherwise than the view the reference learnt (a flash, the
-            # dark between flashes): no offset can be read. The reference learns on, so that
-            # a lasting change of light (the scene relearnt) is registered again.
-            self._learn_reference(small)
+            # dark between flashes): no offset can be read. Departure 44: nor does the
+            # reference learn from it (a flash would stay in it for reference_frames frames,
+            # and the frames after be read against a blend of two lights), until the light
+            # has lasted motion_light_frames frames: then it is the view's, taken as it is.
+            self._lit_frames += 1
+            if rob.motion_light_frames <= 0:
+                self._learn_reference(small)
+            elif self._lit_frames >= rob.motion_light_frames:
+                self._ref_small = small.copy()
+                self._ref_texture = None
+                self._lit_frames = 0
             return 0.0, (0.0, 0.0)
+        self._lit_frames = 0
         translation = global_translation_jit if self.compiled else global_translation
         exclude = self._fg_small
         if self._movers is not None:
@@ -1266,13 +1277,15 @@ class HosDetector:
         goes back and forth; a camera being re-aimed keeps going). Not measured while the
         camera is ``still`` where it was learnt (it cannot be panning): no cost on a fixed
         camera."""
+        rob = self.params.robustness
         prev, self._prev_small = self._prev_small, small
-        if (
-            still
-            or prev is None
-            or prev.shape != small.shape
-            or _lit_otherwise(small, prev, self.params.robustness.motion_light_ratio)
-        ):
+        same_size = prev is not None and prev.shape == small.shape
+        if same_size and _lit_otherwise(small, prev, rob.motion_light_ratio):
+            # a flash (departure 42); the clouds it lit move for a while after it, not the
+            # camera: no step is read for motion_light_frames frames (departure 44)
+            self._flash = max(rob.motion_light_frames, 1)
+        flash, self._flash = self._flash > 0, max(self._flash - 1, 0)
+        if still or not same_size or flash:
             self._steps.clear()
             return 0.0
         translation = global_translation_jit if self.compiled else global_translation
@@ -1285,9 +1298,7 @@ class HosDetector:
         sy = sum(d[1] for d in self._steps)
         pan = math.hypot(sx, sy) * scale
         # the sum is checked against the frame the oldest step started from
-        if pan > self.params.robustness.motion_far_px and not self._explains(
-            self._steps[0][2], small, sx, sy, None
-        ):
+        if pan > rob.motion_far_px and not self._explains(self._steps[0][2], small, sx, sy, None):
             # the view did not go that far: the steps followed something large moving in
             # it (a leaf, a swing), not the camera (departure 33)
             return 0.0

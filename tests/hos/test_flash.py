@@ -7,6 +7,10 @@ translation and no exposure gain explains, and the checks of departure 33 let of
 leave the mismatch as it was stand. A frame whose mean grey level is more than
 ``robustness.motion_light_ratio`` times the reference's (or less than its inverse) is not
 registered, nor compared step by step with a frame lit otherwise.
+
+Departure 44: nor does the reference learn from such a frame until the light has lasted
+``robustness.motion_light_frames`` frames (then it is the view's, taken as it is), and no step
+is read for as many frames after a flash.
 """
 
 from __future__ import annotations
@@ -67,3 +71,63 @@ def test_light_within_the_ratio_is_registered() -> None:
 def test_the_ratio_is_refused_between_0_and_1() -> None:
     with pytest.raises(ValueError, match="motion_light_ratio"):
         DetectorParams.from_dict({"robustness": {"motion_light_ratio": 0.8}})
+
+
+def _warmed(light_frames: int) -> tuple[HosDetector, np.ndarray]:
+    view = _view()
+    det = HosDetector(
+        DetectorParams.from_dict({"robustness": {"motion_light_frames": light_frames}})
+    )
+    for i in range(80):
+        det.segment(_as_frame(view, i), i / 25.0)
+    return det, view
+
+
+@pytest.mark.parametrize("light_frames", [25, 0])
+def test_a_flash_does_not_stay_in_the_reference(light_frames: int) -> None:
+    """Clouds lit by a flash, eight times the view's light, for 30 frames: the reference
+    keeps the view for 24 of them, then takes the new light as it is (its mean at once the
+    frame's, exposure corrected). The control (departure 42 alone) blends the flash in from
+    the first frame on, and is still halfway after 30: the frames after a flash are read
+    against a mixture of two lights."""
+    det, _ = _warmed(light_frames)
+    clouds = np.roll(_view(7), 5, axis=0)
+    before = float(det._ref_small.mean())
+    means = []
+    for i in range(80, 110):
+        det.segment(_as_frame(8.0 * clouds, i), i / 25.0)
+        means.append(float(det._ref_small.mean()))
+    if light_frames:
+        assert means[:24] == pytest.approx([before] * 24, abs=1e-3)
+        assert means[24] > 1.5 * before and means[-1] == pytest.approx(means[24], rel=0.01)
+    else:
+        assert means[0] > before + 0.1
+        assert means[-1] > means[-2] > means[-3]  # still learning the flash in
+
+
+@pytest.mark.parametrize("light_frames", [25, 0])
+def test_no_step_is_read_for_a_while_after_a_flash(light_frames: int) -> None:
+    """After a frame eight times as bright as the one before (a flash), a view that keeps
+    going 8 px a frame (the lit clouds drifting) adds no step for 25 frames, so the camera
+    is not taken for one being re-aimed; the control reads a pan from the third frame on."""
+    det, view = _warmed(light_frames)
+    size = det._ref_small.shape[::-1]
+
+    def small(img: np.ndarray) -> np.ndarray:
+        return cv2.resize(img.astype(np.float32), size, interpolation=cv2.INTER_AREA)
+
+    det._pan(small(view), det._scale, still=False)
+    pans = [
+        det._pan(small(8.0 * np.roll(view, 8 * k, axis=1)), det._scale, still=False)
+        for k in range(30)
+    ]
+    if light_frames:
+        assert max(pans[:25]) == 0.0
+        assert max(pans[25:]) > det.params.robustness.motion_far_px
+    else:
+        assert pans[0] == 0.0 and max(pans[2:]) > det.params.robustness.motion_far_px
+
+
+def test_the_light_frames_are_refused_below_0() -> None:
+    with pytest.raises(ValueError, match="motion_light_frames"):
+        DetectorParams.from_dict({"robustness": {"motion_light_frames": -1}})
