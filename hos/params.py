@@ -257,11 +257,12 @@ class DecisionParams:
     fall_z: float = 8.0
     fall_frames: int = 25
     fall_radius: float = 9.0
-    #: Beyond the paper (docs/method.md, departure 43): the type remembers the fall. While
-    #: the type's fall z is at least this share of ``fall_z`` (above every rain and clear
-    #: frame of the tuning split: 3.3 and 3.5 at most), a frame does not vote rain, and votes
-    #: snow once snow is said: a fall that weakens under the verdict's threshold is still no
-    #: rain's. 0: the fall votes only while its verdict is on (before departure 43).
+    #: Beyond the paper (docs/method.md, departure 43): the type remembers the fall. Within
+    #: the type's vote window (``window_frames``) of a frame seen falling, a frame whose fall
+    #: z on the type's meter is at least this share of ``fall_z`` (above every rain frame of
+    #: the tuning split: 3.33 at most) votes snow, and is remembered in turn: a fall that
+    #: weakens under the verdict's threshold is still no rain's. 0: the fall votes only while
+    #: its verdict is on (before departure 43).
     fall_type_hold: float = 0.5
     #: Beyond the paper (docs/method.md, departure 37): while a cloud's shade is corrected,
     #: the small blobs in the blocks where the frame's local level is still off the

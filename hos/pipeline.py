@@ -67,15 +67,7 @@ from .mixture import fit_mixture
 from .moments import orientation_uncertainty
 from .motion import exposure_gain, global_translation, reduce
 from .params import DecisionParams, DetectorParams
-from .ptype import (
-    RAIN,
-    SNOW,
-    UNKNOWN,
-    PrecipitationTypeVote,
-    blob_contrast,
-    frame_vote,
-    streak_shape,
-)
+from .ptype import SNOW, PrecipitationTypeVote, blob_contrast, frame_vote, streak_shape
 from .result import BlobClass, FrameResult, MixtureFit, State
 from .shade import apply_field, shade_field, upsample
 from .smoothing import Dwell, ParameterSmoother
@@ -213,9 +205,15 @@ def offset_explains(
 def _lit_otherwise(frame: np.ndarray, reference: np.ndarray, ratio: float) -> bool:
     """Whether ``frame``'s mean grey level (plus one) is more than ``ratio`` times
     ``reference``'s or less than its inverse (departure 42); never with ``ratio`` 0."""
+    return _ratio_over(float(frame.mean()), float(reference.mean()), ratio)
+
+
+def _ratio_over(now: float, before: float, ratio: float) -> bool:
+    """Whether mean grey level ``now`` (plus one) is more than ``ratio`` times ``before``
+    (plus one) or less than its inverse; never with ``ratio`` 0."""
     if ratio <= 0:
         return False
-    now, before = float(frame.mean()) + 1.0, float(reference.mean()) + 1.0
+    now, before = now + 1.0, before + 1.0
     return max(now / before, before / now) > ratio
 
 
@@ -420,7 +418,6 @@ class HosDetector:
         self._shaken = 0  # frames left in which the camera counts as shaken (wind)
         self._settling = 0  # frames left to hold after the camera was last moved
         self._prev_small: np.ndarray | None = None  # the last frame, for its own motion
-        self._lit_frames = 0  # frames in a row lit otherwise than the reference (dep. 44)
         self._flash = 0  # frames left without a frame-to-frame step after a flash (dep. 44)
         # the last frames analysed, newest first: for blobs copied from them (stale_level)
         self._prev_images: deque[np.ndarray] = deque(maxlen=self.params.robustness.stale_frames)
@@ -447,6 +444,7 @@ class HosDetector:
         # outside the cells re-levelled still tell snow from rain (departure 37); None: the
         # verdict's is the type's
         self._fall_type: _FallVerdict | None = None
+        self._fall_memory = 0  # frames left in which the type remembers the fall (dep. 43)
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -469,6 +467,10 @@ class HosDetector:
         self._gain = 1.0
         self._shade: np.ndarray | None = None  # log gain of each cell (departure 31)
         self._ref_small: np.ndarray | None = None  # reference image of the motion estimate
+        # frames in a row lit otherwise than the reference but alike, and the first one's
+        # mean grey level (departure 44)
+        self._lit_frames = 0
+        self._lit_mean = 0.0
         self._ref_texture: TexturePoints | None = None  # its most textured quarter (dep. 33)
         self._ref_texture_age = 0  # frames since that was found
         self._fg_small: np.ndarray | None = None  # where the last frame's foreground was
@@ -1051,10 +1053,19 @@ class HosDetector:
             # drop falls further between two frames than its streak is long, and is not found
             # again lower down; docs/method.md, "Precipitation type")
             vote = SNOW
-        elif state == State.OK and 0 < dp.fall_type_hold * dp.fall_z <= type_z:
-            # departure 43: the fall weakened under the verdict's threshold but is still
-            # above anything rain gives: no rain vote, and snow said stays snow
-            vote = SNOW if self._ptype.current == SNOW else (UNKNOWN if vote == RAIN else vote)
+            self._fall_memory = self._ptype.params.window_frames
+        elif (
+            state == State.OK
+            and self._fall_memory > 0
+            and 0 < dp.fall_type_hold * dp.fall_z <= type_z
+        ):
+            # departure 43: the type remembers the fall. Seen falling within the type's
+            # window, and still falling above anything rain gives though under the
+            # verdict's threshold: flakes still, whatever their streaks look like
+            vote = SNOW
+            self._fall_memory = self._ptype.params.window_frames
+        else:
+            self._fall_memory = max(self._fall_memory - 1, 0)
         precipitation_type = self._ptype.update(vote, precipitating=rain)
 
         # 8. intensity
@@ -1154,13 +1165,18 @@ class HosDetector:
             self._ref_small = small.copy()
             self._ref_texture = None
             self._fg_small = None
+            self._lit_frames = 0
             return 0.0, (0.0, 0.0)
         if _lit_otherwise(small, self._ref_small, rob.motion_light_ratio):
             # Departure 42: lit otherwise than the view the reference learnt (a flash, the
             # dark between flashes): no offset can be read. Departure 44: nor does the
             # reference learn from it (a flash would stay in it for reference_frames frames,
-            # and the frames after be read against a blend of two lights), until the light
-            # has lasted motion_light_frames frames: then it is the view's, taken as it is.
+            # and the frames after be read against a blend of two lights), until one light
+            # (each frame within the ratio of the first) has lasted motion_light_frames
+            # frames: then it is the view's, taken as it is.
+            mean = float(small.mean())
+            if self._lit_frames == 0 or _ratio_over(mean, self._lit_mean, rob.motion_light_ratio):
+                self._lit_frames, self._lit_mean = 0, mean  # another light: counted anew
             self._lit_frames += 1
             if rob.motion_light_frames <= 0:
                 self._learn_reference(small)

@@ -88,7 +88,8 @@ def test_a_flash_does_not_stay_in_the_reference(light_frames: int) -> None:
     """Clouds lit by a flash, eight times the view's light, for 30 frames: the reference
     keeps the view for 24 of them, then takes the new light as it is (its mean at once the
     frame's, exposure corrected). The control (departure 42 alone) blends the flash in from
-    the first frame on, and is still halfway after 30: the frames after a flash are read
+    the first frame on (at 1/20 a frame: the flash starts a scene change, whose relearning
+    the reference follows) and is still learning after 30: the frames after a flash are read
     against a mixture of two lights."""
     det, _ = _warmed(light_frames)
     clouds = np.roll(_view(7), 5, axis=0)
@@ -108,8 +109,10 @@ def test_a_flash_does_not_stay_in_the_reference(light_frames: int) -> None:
 @pytest.mark.parametrize("light_frames", [25, 0])
 def test_no_step_is_read_for_a_while_after_a_flash(light_frames: int) -> None:
     """After a frame eight times as bright as the one before (a flash), a view that keeps
-    going 8 px a frame (the lit clouds drifting) adds no step for 25 frames, so the camera
-    is not taken for one being re-aimed; the control reads a pan from the third frame on."""
+    shifting (the lit clouds drifting; 8 px a frame, read as about 2) adds no step on that
+    frame and the 24 after it, so the camera is not taken for one being re-aimed; a step is
+    read from the 25th on. The control reads a pan from the third frame on. (``_pan`` is
+    called as the detector calls it on a camera not ``still``.)"""
     det, view = _warmed(light_frames)
     size = det._ref_small.shape[::-1]
 
@@ -122,7 +125,7 @@ def test_no_step_is_read_for_a_while_after_a_flash(light_frames: int) -> None:
         for k in range(30)
     ]
     if light_frames:
-        assert max(pans[:25]) == 0.0
+        assert max(pans[:25]) == 0.0 and pans[25] > 0.0
         assert max(pans[25:]) > det.params.robustness.motion_far_px
     else:
         assert pans[0] == 0.0 and max(pans[2:]) > det.params.robustness.motion_far_px
@@ -131,3 +134,19 @@ def test_no_step_is_read_for_a_while_after_a_flash(light_frames: int) -> None:
 def test_the_light_frames_are_refused_below_0() -> None:
     with pytest.raises(ValueError, match="motion_light_frames"):
         DetectorParams.from_dict({"robustness": {"motion_light_frames": -1}})
+
+
+def test_a_light_counts_as_the_views_only_while_it_holds() -> None:
+    """Frames lit otherwise but unlike each other (flashes of eight times the view's light
+    and the dark between them, a tenth of it, alternating) are not one light: after 30 of
+    them the reference is still the view's (counted as one run, the 25th frame, a flash or
+    the dark, would have become the reference). 25 frames of one light are the view's."""
+    det, _ = _warmed(25)
+    clouds = np.roll(_view(7), 5, axis=0)
+    before = float(det._ref_small.mean())
+    for i in range(80, 110):
+        det.segment(_as_frame((8.0 if i % 2 else 0.1) * clouds, i), i / 25.0)
+    assert float(det._ref_small.mean()) == pytest.approx(before, abs=1e-3)
+    for i in range(110, 135):
+        det.segment(_as_frame(8.0 * clouds, i), i / 25.0)
+    assert float(det._ref_small.mean()) > 1.5 * before
