@@ -1048,20 +1048,13 @@ class HosDetector:
         )
         vote = frame_vote(shape_, self._ptype.params) if state == State.OK else "unknown"
         typing = self._fall if self._fall_type is None else self._fall_type
-        if typing.falling and state == State.OK:
+        remembered = self._fall_memory > 0 and 0 < dp.fall_type_hold * dp.fall_z <= type_z
+        if state == State.OK and (typing.falling or remembered):
             # seen falling a few pixels a frame: flakes, whatever their streaks look like (a
             # drop falls further between two frames than its streak is long, and is not found
-            # again lower down; docs/method.md, "Precipitation type")
-            vote = SNOW
-            self._fall_memory = self._ptype.params.window_frames
-        elif (
-            state == State.OK
-            and self._fall_memory > 0
-            and 0 < dp.fall_type_hold * dp.fall_z <= type_z
-        ):
-            # departure 43: the type remembers the fall. Seen falling within the type's
-            # window, and still falling above anything rain gives though under the
-            # verdict's threshold: flakes still, whatever their streaks look like
+            # again lower down; docs/method.md, "Precipitation type"). Departure 43: the type
+            # remembers the fall: seen falling within the type's window, and still falling
+            # above anything rain gives though under the verdict's threshold, flakes still
             vote = SNOW
             self._fall_memory = self._ptype.params.window_frames
         else:
@@ -1162,28 +1155,24 @@ class HosDetector:
         """
         rob = self.params.robustness
         if self._ref_small is None or self._ref_small.shape != small.shape:
-            self._ref_small = small.copy()
-            self._ref_texture = None
+            self._take_reference(small)
             self._fg_small = None
-            self._lit_frames = 0
             return 0.0, (0.0, 0.0)
-        if _lit_otherwise(small, self._ref_small, rob.motion_light_ratio):
+        mean = float(small.mean())
+        if _ratio_over(mean, float(self._ref_small.mean()), rob.motion_light_ratio):
             # Departure 42: lit otherwise than the view the reference learnt (a flash, the
             # dark between flashes): no offset can be read. Departure 44: nor does the
             # reference learn from it (a flash would stay in it for reference_frames frames,
             # and the frames after be read against a blend of two lights), until one light
             # (each frame within the ratio of the first) has lasted motion_light_frames
             # frames: then it is the view's, taken as it is.
-            mean = float(small.mean())
             if self._lit_frames == 0 or _ratio_over(mean, self._lit_mean, rob.motion_light_ratio):
                 self._lit_frames, self._lit_mean = 0, mean  # another light: counted anew
             self._lit_frames += 1
             if rob.motion_light_frames <= 0:
                 self._learn_reference(small)
             elif self._lit_frames >= rob.motion_light_frames:
-                self._ref_small = small.copy()
-                self._ref_texture = None
-                self._lit_frames = 0
+                self._take_reference(small)
             return 0.0, (0.0, 0.0)
         self._lit_frames = 0
         translation = global_translation_jit if self.compiled else global_translation
@@ -1224,6 +1213,13 @@ class HosDetector:
         self._learn_reference(small)
         scale = self._scale
         return math.hypot(dx, dy) * scale, (dx * scale, dy * scale)
+
+    def _take_reference(self, small: np.ndarray) -> None:
+        """Make ``small`` the camera-offset reference as it is (a first view, or a light
+        that lasted, departure 44); its texture is found again."""
+        self._ref_small = small.copy()
+        self._ref_texture = None
+        self._lit_frames = 0
 
     def _learn_reference(self, small: np.ndarray) -> None:
         """Step the camera-offset reference towards ``small``. While the background model
@@ -1291,8 +1287,8 @@ class HosDetector:
         """How far the camera went over its last ``_PAN_FRAMES`` frames, pixels at full
         resolution: the length of the sum of its frame-to-frame translations (the wind's sway
         goes back and forth; a camera being re-aimed keeps going). Not measured while the
-        camera is ``still`` where it was learnt (it cannot be panning): no cost on a fixed
-        camera."""
+        camera is ``still`` where it was learnt (it cannot be panning): no fit on a fixed
+        camera, only the light compared with the last frame's (departure 44)."""
         rob = self.params.robustness
         prev, self._prev_small = self._prev_small, small
         same_size = prev is not None and prev.shape == small.shape
