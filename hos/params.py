@@ -301,6 +301,28 @@ class DecisionParams:
     #: ``measurement_var * max(1, measurement_blobs / n_eff)``, n_eff the effective number of
     #: blobs of the HOS (their weights' (sum w)^2 / sum w^2); 0 keeps the paper's constant.
     measurement_blobs: float = 100.0
+    #: Beyond the paper: a second track of rain, made of the last frame's voting blobs that
+    #: pass the paper's eq. 32 (at least this share of a blob's pixels ``photometric_c``
+    #: brighter than in the frame before and in the frame after: a drop is there for one
+    #: frame only). It has its own pool and Kalman filter, with ``transient_blobs`` as its
+    #: ``measurement_blobs``; rain is said when either track says it (docs/method.md,
+    #: departure 45). A rain test only: slow snow fails it, and stays with the first track.
+    #: 0 (the default): no second track; 0.5 is the value measured. An option, off: it sees
+    #: more rain, but said rain on a clear scene that no parameter was set on (departure 45).
+    transient_share: float = 0.0
+    transient_blobs: float = 30.0
+    #: ... and only blobs of at least this many pixels vote in it: a drop of sensor noise
+    #: passes eq. 32 too, and a blob of 2 pixels has one of four orientations
+    transient_min_area: int = 3
+    #: ... and its width rules (``sigma_min``, ``sigma_max``, ``spread_sigma``) read the
+    #: median width of its last this many fits: a fit of some 30 drops reads its width a
+    #: few degrees off, and one such fit must not turn clutter into rain
+    transient_width_frames: int = 5
+    #: ... and the blobs the light rule left out (departure 31) are tested in it too
+    transient_lit: bool = True
+    #: ... and a drop's pixel must have been at rest before it came (within ``photometric_c``
+    #: from the frame before that one): a flickering light passes eq. 32 too
+    transient_rest: bool = True
     #: Beyond the paper: a fitted Gaussian wider than this is not a streak population.
     sigma_max: float = math.radians(36.0)
     #: Beyond the paper: nor is one narrower than this (the fitted sigma, voting kernels
@@ -350,6 +372,10 @@ class DecisionParams:
         _check(self.sigma_max > 0, "sigma_max", "must be > 0")
         _check(0 <= self.sigma_min < self.sigma_max, "sigma_min", "must be in [0, sigma_max)")
         _check(self.sigma_min_blobs >= 0, "sigma_min_blobs", "must be >= 0")
+        _check(0 <= self.transient_share <= 1, "transient_share", "must be in [0, 1]")
+        _check(self.transient_blobs > 0, "transient_blobs", "must be > 0")
+        _check(self.transient_min_area >= 1, "transient_min_area", "must be >= 1")
+        _check(self.transient_width_frames >= 1, "transient_width_frames", "must be >= 1")
         _check(0 < self.max_tilt <= math.pi / 2, "max_tilt", "must be in (0, 90] degrees")
         _check(self.s_b > 0, "s_b", "must be > 0")
 

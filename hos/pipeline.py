@@ -31,6 +31,7 @@ precipitation type (``analyse``).
 from __future__ import annotations
 
 import copy
+import dataclasses
 import itertools
 import math
 from collections import deque
@@ -50,6 +51,7 @@ from .background import (
     translate,
 )
 from .blobs import (
+    Blobs,
     CandidateRate,
     blob_change,
     blob_mean_rate,
@@ -113,6 +115,46 @@ _RELEARN_RATE = 0.05
 #: Frames in a row repeating the one before that hold the verdict (a stream filling in
 #: dropped frames); more is a frozen stream, judged like any frame without fresh streaks.
 _REPEATS_HELD = 25
+
+
+@dataclass(frozen=True)
+class _Pending:
+    """A frame's voting blobs, kept for the next frame's eq. 32 (departure 45): the frame's
+    shape; their pixels' flat indices, blob (0..k-1) and grey level, and whether each was
+    ``photometric_c`` brighter than in the frame before; their votes (3, k: orientation,
+    uncertainty, weight), traffic-map cells and centroids."""
+
+    shape: tuple[int, ...]
+    index: np.ndarray
+    which: np.ndarray
+    level: np.ndarray
+    brighter: np.ndarray
+    votes: np.ndarray
+    cells: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+
+
+class _TransientTrack:
+    """The second track's state (departure 45): its pool, Kalman filter, last fit, and the
+    last frame's voting blobs waiting for this frame's eq. 32."""
+
+    def __init__(self, params: DecisionParams) -> None:
+        # its frames come a frame late, so it ends a frame sooner: the verdict ends with the
+        # first track's when both end with the rain
+        tp = dataclasses.replace(
+            params,
+            measurement_blobs=params.transient_blobs,
+            dwell_off_frames=max(params.dwell_off_frames - 1, 1),
+        )
+        self.smoother = ParameterSmoother(tp)
+        self.pool: deque = deque(maxlen=params.pool_frames)
+        self.last_fit: tuple[float, float, float] | None = None
+        self.pending: _Pending | None = None
+        self.votes_rate = 0.0  # drops a frame, a running mean (decision.collapse_ratio)
+        # the last fits' widths (sigma, the streaks' own spread): a fit of 30 drops reads its
+        # width a few degrees off, so the width rules take their median
+        self.widths: deque = deque(maxlen=params.transient_width_frames)
 
 
 def _in_cells(cells: np.ndarray, cell: float, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -445,6 +487,9 @@ class HosDetector:
         # verdict's is the type's
         self._fall_type: _FallVerdict | None = None
         self._fall_memory = 0  # frames left in which the type remembers the fall (dep. 43)
+        # beyond the paper: the second track, of the blobs that pass eq. 32 (departure 45)
+        dp = self.params.decision
+        self._track = _TransientTrack(dp) if dp.transient_share > 0 else None
 
     # -- the frame -----------------------------------------------------------------------
     def process(self, gray: np.ndarray, t_s: float) -> FrameResult:
@@ -829,7 +874,7 @@ class HosDetector:
                 stale &= change < rob.stale_level  # NaN (no pixel) compares False
             stale[0] = False
             structural |= stale
-        if rob.stale_level > 0:  # nothing to keep when the rule is off
+        if rob.stale_level > 0 or self._track is not None:  # nothing to keep when both are off
             self._prev_images.appendleft(seg.image.copy())
         # ... for a moment only: a stream frozen on one picture shows no fresh streak, and
         # decays to no precipitation as before
@@ -878,6 +923,8 @@ class HosDetector:
             structural |= moved_edge_
         # 3e. where the light changes in this frame (a cloud's shade coming or going, beyond
         # the paper, departure 31), what eq. 8 cuts out is what the correction missed of it
+        # (the second track tests them itself: a shade's edge is still there in the next frame)
+        drops = accepted.copy() if self.params.decision.transient_lit else accepted
         if seg.shading is not None:
             lit = _in_cells(seg.shading, seg.shading_cell, mom.x0, mom.y0)
             lit[0] = False
@@ -920,33 +967,8 @@ class HosDetector:
             fit = MixtureFit(ok=False, reason="no blobs")
 
         # 6. decision
-        spread = fit.sigma
-        if dp.kernel_corrected and fit.ok:
-            # beyond the paper: the streaks' own spread, the voting kernels' width taken out
-            spread = streak_spread(fit, votes)
-        plausible = (
-            fit.ok
-            and fit.gof_ok
-            and spread <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
-            # beyond the paper: not one orientation repeated (parallel structure), unless one
-            # frame alone has many blobs at that orientation (parallel rain)
-            and (
-                fit.sigma >= dp.sigma_min
-                or (dp.sigma_min_blobs > 0 and pooled == 1 and fit.pi * n_eff >= dp.sigma_min_blobs)
-            )
-            and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
-            # beyond the paper: not a population the next frame shows again (departure 29)
-            and not flicker
-            # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
-            # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)
-            and (pooled == 1 or places >= dp.pool_places * n_pooled)
-            # beyond the paper: a wide population must be spread over the view like snow, not
-            # gathered in one place like a tree's foliage in the wind
-            and (
-                pooled > 1
-                or spread <= dp.spread_sigma
-                or self._spread(mom.x0[idx], mom.y0[idx]) >= dp.spread_places
-            )
+        plausible = self._plausible(
+            fit, votes, pooled, n_eff, places, n_pooled, flicker, mom.x0[idx], mom.y0[idx]
         )
         # Beyond the paper: rain that stops leaves nothing behind. A frame with far fewer
         # voting blobs than the last frames had is the end of a shower, whatever the few
@@ -1008,7 +1030,23 @@ class HosDetector:
         fall_z, fall_px = self._fall.update(judged, radius, mom.x0, mom.y0, fall_points)
         if self._fall_type is None:
             type_z = fall_z
-        rain = (smoothed.rain or self._fall.falling) and state == State.OK
+        # 6c. the second track (beyond the paper, departure 45): the last frame's voting blobs
+        # that this frame shows were drops
+        track_rain, track_pi, n_drops = False, math.nan, 0
+        if self._track is not None:
+            track_rain, track_pi, n_drops = self._track_step(
+                seg.image,
+                frames,
+                blobs,
+                drops,
+                blob_cells,
+                judged=state == State.OK and not hold,
+                flicker=flicker,
+            )
+        # the type is voted on the first track's frames: the second's is a test for rain,
+        # and a soft camera's fast flakes pass it too, which their shape would then type rain
+        typed = (smoothed.rain or self._fall.falling) and state == State.OK
+        rain = typed or (track_rain and state == State.OK)
 
         # 7. rain pixels
         blob_class = np.full(blobs.n_labels, BlobClass.SIZE, dtype=np.uint8)
@@ -1059,7 +1097,7 @@ class HosDetector:
             self._fall_memory = self._ptype.params.window_frames
         else:
             self._fall_memory = max(self._fall_memory - 1, 0)
-        precipitation_type = self._ptype.update(vote, precipitating=rain)
+        precipitation_type = self._ptype.update(vote, precipitating=typed)
 
         # 8. intensity
         merge = self._merge_correction(
@@ -1093,6 +1131,8 @@ class HosDetector:
             fall_z=fall_z,
             fall_px=fall_px,
             flicker_share=self._flicker_rate,
+            drops_pi_smoothed=track_pi,
+            n_drop_blobs=n_drops,
             labels=blobs.labels,
             blob_class=blob_class,
             pixel_index=blobs.index,
@@ -1333,8 +1373,216 @@ class HosDetector:
         cells = g * g
         return occupied / (cells * (1.0 - (1.0 - 1.0 / cells) ** n))
 
+    def _track_step(
+        self,
+        image: np.ndarray,
+        frames: list[np.ndarray],
+        blobs: Blobs,
+        voting: np.ndarray,
+        blob_cells: np.ndarray,
+        *,
+        judged: bool,
+        flicker: bool,
+    ) -> tuple[bool, float, int]:
+        """One frame of the second track (beyond the paper, departure 45): the last frame's
+        voting blobs that pass eq. 32 against this frame (``image``) are fitted, pooled and
+        smoothed as the first track's are, and this frame's (``voting``, by label) are kept
+        for the next. Returns the track's verdict, its smoothed Pi and how many drops voted."""
+        track = self._track
+        assert track is not None
+        votes, cells, x, y = self._drops(track, image, judged)
+        self._keep_voting(track, frames, blobs, voting, blob_cells, judged)
+        if not judged:
+            track.pool.clear()
+            track.widths.clear()
+            held = track.smoother.hold()
+            return held.rain, held.pi, 0
+        dp = self.params.decision
+        hp = self.params.histogram
+        hist = hos_histogram(
+            votes[0],
+            votes[1],
+            votes[2],
+            bins=hp.bins,
+            dtheta_min=hp.dtheta_min,
+            dtheta_max=hp.dtheta_max,
+        )
+        fitted, n_pooled, pooled, n_eff, places, pooled_votes = self._pooled_hos(
+            hist, False, cells, votes, pool=track.pool
+        )
+        n = votes.shape[1]
+        if n:
+            mp = self.params.mixture
+            fit = (fit_mixture_jit if self.compiled else fit_mixture)(
+                fitted,
+                max_iter=mp.max_iter,
+                tol=mp.tol,
+                gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
+                sigma_min=mp.sigma_min,
+                start=track.last_fit,
+            )
+            track.last_fit = (fit.pi, fit.mu, fit.sigma) if fit.ok and fit.gof_ok else None
+        else:
+            fit = MixtureFit(ok=False, reason="no blobs")
+        width = None
+        if fit.ok and fit.gof_ok:
+            own = (fit.sigma, self._streak_spread(fit, pooled_votes))
+            track.widths.append(own)
+            width = tuple(np.median(np.asarray(track.widths), axis=0))
+            # the stricter of the fit's own width and the median: narrow enough both ways
+            # for spread_sigma and sigma_max, wide enough both ways for sigma_min
+            width = (min(own[0], width[0]), max(own[1], width[1]))
+        plausible = self._plausible(
+            fit, pooled_votes, pooled, n_eff, places, n_pooled, flicker, x, y, width=width
+        )
+        # rain that stops leaves no drops (departure 20, as in the first track)
+        collapsed = dp.collapse_ratio > 0 and n < dp.collapse_ratio * track.votes_rate
+        track.votes_rate += (n - track.votes_rate) / dp.collapse_frames
+        if collapsed and dp.empty_measurement_var > 0:
+            state = track.smoother.update(None, measurement_var=dp.empty_measurement_var)
+        elif plausible and n_pooled >= dp.min_blobs:
+            var = dp.measurement_var * max(1.0, dp.transient_blobs / max(n_eff, 1.0)) * pooled
+            state = track.smoother.update((fit.pi, fit.mu, fit.sigma), measurement_var=var)
+        elif n < dp.min_blobs and not plausible and dp.empty_measurement_var > 0:
+            state = track.smoother.update(None, measurement_var=dp.empty_measurement_var)
+        else:
+            state = track.smoother.update(None)
+        return state.rain, state.pi, n
+
+    def _keep_voting(
+        self,
+        track: _TransientTrack,
+        frames: list[np.ndarray],
+        blobs: Blobs,
+        voting: np.ndarray,
+        blob_cells: np.ndarray,
+        judged: bool,
+    ) -> None:
+        """Keep this frame's ``voting`` blobs (by label) for the next frame's eq. 32
+        (:meth:`_drops`): their votes (orientation, uncertainty, weight), cells and
+        centroids, their pixels and grey levels, and which pixels are ``photometric_c``
+        brighter than in the frame before (``frames``: this frame and the last ones, newest
+        first, as the background model saw them)."""
+        track.pending = None
+        voting = voting & (blobs.moments.area >= self.params.decision.transient_min_area)
+        labels = np.flatnonzero(voting)
+        if not judged or len(frames) < 2 or labels.size == 0:
+            return
+        on = voting[blobs.pixel_labels]
+        index = np.asarray(blobs.index, dtype=np.intp)[on]
+        _, which = np.unique(blobs.pixel_labels[on], return_inverse=True)
+        now = frames[0].reshape(-1)[index].astype(np.int16)
+        before = frames[1].reshape(-1)[index].astype(np.int16)
+        c = self.params.segmentation.photometric_c
+        brighter = now - before >= c
+        if self.params.decision.transient_rest and len(frames) > 2:
+            # ... and at rest before it came: a light that flickers (its reflection in a wet
+            # road, shimmering with the water film) was there, and changed, the frame before
+            brighter &= np.abs(before - frames[2].reshape(-1)[index].astype(np.int16)) < c
+        mom = blobs.moments
+        hp = self.params.histogram
+        dtheta = orientation_uncertainty(
+            mom.m20[labels],
+            mom.m11[labels],
+            mom.m02[labels],
+            dm=hp.dm,
+            lo=hp.dtheta_min,
+            hi=hp.dtheta_max,
+        )
+        track.pending = _Pending(
+            shape=frames[0].shape,
+            index=index,
+            which=which,
+            level=now,
+            brighter=brighter,
+            votes=np.stack((mom.theta[labels], dtheta, mom.a[labels])),
+            cells=blob_cells[labels],
+            x=mom.x0[labels],
+            y=mom.y0[labels],
+        )
+
+    def _drops(
+        self, track: _TransientTrack, image: np.ndarray, judged: bool
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The votes, cells and centroids of the blobs :meth:`_keep_voting` kept last frame
+        that pass eq. 32 against ``image``, this frame: at least
+        ``decision.transient_share`` of their pixels ``photometric_c`` brighter than in the
+        frame before and than in this one (beyond the paper, departure 45)."""
+        pending, track.pending = track.pending, None
+        if pending is None or not judged or pending.shape != image.shape:
+            return np.zeros((3, 0)), np.zeros(0, np.intp), np.zeros(0), np.zeros(0)
+        after = image.reshape(-1)[pending.index].astype(np.int16)
+        c = self.params.segmentation.photometric_c
+        both = pending.brighter & (pending.level - after >= c)
+        n = pending.cells.size
+        share = np.bincount(pending.which, weights=both, minlength=n) / np.maximum(
+            np.bincount(pending.which, minlength=n), 1
+        )
+        drop = share >= self.params.decision.transient_share
+        return pending.votes[:, drop], pending.cells[drop], pending.x[drop], pending.y[drop]
+
+    def _plausible(
+        self,
+        fit: MixtureFit,
+        votes: np.ndarray,
+        pooled: int,
+        n_eff: float,
+        places: int,
+        n_pooled: int,
+        flicker: bool,
+        x: np.ndarray,
+        y: np.ndarray,
+        *,
+        width: tuple[float, float] | None = None,
+    ) -> bool:
+        """Whether a fit is a streak population (section 5, and the rules beyond the paper):
+        ``votes`` the blobs fitted (3, P), ``pooled`` the frames they came from, ``x``, ``y``
+        this frame's voting blobs' centroids. ``width``: the second track's (departure 45),
+        the median (sigma, spread) of its last fits, judged in their place, and only a
+        population as narrow as ``decision.spread_sigma`` (a test for rain)."""
+        dp = self.params.decision
+        narrow = width is not None
+        if narrow:
+            sigma, spread = width
+        else:
+            sigma, spread = fit.sigma, self._streak_spread(fit, votes)
+        return bool(
+            fit.ok
+            and fit.gof_ok
+            and spread <= (dp.sigma_max if pooled == 1 else dp.pool_sigma_max)
+            # beyond the paper: not one orientation repeated (parallel structure), unless one
+            # frame alone has many blobs at that orientation (parallel rain)
+            and (
+                sigma >= dp.sigma_min
+                or (dp.sigma_min_blobs > 0 and pooled == 1 and fit.pi * n_eff >= dp.sigma_min_blobs)
+            )
+            and abs(float(wrap_diff(fit.mu, dp.vertical))) <= dp.max_tilt
+            # beyond the paper: not a population the next frame shows again (departure 29)
+            and not flicker
+            # beyond the paper: a pooled fit's blobs must be spread like rain, not a few
+            # bodies' parts seen again and again (a pedestrian's limbs, a light's reflection)
+            and (pooled == 1 or places >= dp.pool_places * n_pooled)
+            # beyond the paper: a wide population must be spread over the view like snow, not
+            # gathered in one place like a tree's foliage in the wind
+            and (pooled > 1 or spread <= dp.spread_sigma or self._spread(x, y) >= dp.spread_places)
+            and (not narrow or spread <= dp.spread_sigma)
+        )
+
+    def _streak_spread(self, fit: MixtureFit, votes: np.ndarray) -> float:
+        """The fit's width as the width rules read it: sigma, or (beyond the paper,
+        ``decision.kernel_corrected``) the streaks' own spread, the voting kernels' width
+        taken out."""
+        if self.params.decision.kernel_corrected and fit.ok:
+            return float(streak_spread(fit, votes))
+        return fit.sigma
+
     def _pooled_hos(
-        self, hist: np.ndarray, hold: bool, cells: np.ndarray, votes: np.ndarray
+        self,
+        hist: np.ndarray,
+        hold: bool,
+        cells: np.ndarray,
+        votes: np.ndarray,
+        pool: deque | None = None,
     ) -> tuple[np.ndarray, int, int, float, int, np.ndarray]:
         """The HOS to fit: ``(histogram, blobs, frames pooled, n_eff, places, votes)``
         (beyond the paper).
@@ -1348,18 +1596,19 @@ class HosDetector:
         ``places`` is the number of distinct cells of the blobs pooled (rain lands somewhere
         new each frame, a body's parts do not). A held frame empties the pool.
         """
+        pool = self._pool if pool is None else pool
         if hold:
-            self._pool.clear()
+            pool.clear()
         else:
-            self._pool.appendleft((hist, cells, votes))
+            pool.appendleft((hist, cells, votes))
         n = votes.shape[1]
         pooled = 1
         places = n
-        if 0 < n < self.params.decision.min_blobs and len(self._pool) > 1:
+        if 0 < n < self.params.decision.min_blobs and len(pool) > 1:
             hist = hist.copy()
             seen = [cells]
             seen_votes = [votes]
-            for other, c, v in itertools.islice(self._pool, 1, None):
+            for other, c, v in itertools.islice(pool, 1, None):
                 if n >= self.params.decision.min_blobs:
                     break
                 hist += other

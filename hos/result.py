@@ -99,6 +99,13 @@ class FrameResult:
     #: frame showed again, beyond chance (``decision.flicker_share``: above it, leaves stirred
     #: by gusts, not rain; departure 29).
     flicker_share: float = 0.0
+    #: Beyond the paper (departure 45): the second track's smoothed Pi, of the last frame's
+    #: voting blobs that passed the paper's eq. 32 against this frame (a drop is brighter
+    #: than the frames before and after it), and how many of them voted. ``rain`` is said
+    #: when either track says it, so it may be true while ``pi_smoothed`` is low. NaN when
+    #: the second track is off.
+    drops_pi_smoothed: float = math.nan
+    n_drop_blobs: int = 0
     #: (H, W) int32 labels of the candidate mask and (n_labels,) uint8 class of each label.
     #: ``labels`` may be None when the labels are kept sparse, as the candidate pixels' flat
     #: indices ``pixel_index`` (N,) and their labels ``pixel_labels`` (N,): see label_image().
@@ -149,6 +156,8 @@ class FrameResult:
             "fall_z": json_float(self.fall_z),
             "fall_px": json_float(self.fall_px),
             "flicker_share": json_float(self.flicker_share),
+            "drops_pi_smoothed": json_float(self.drops_pi_smoothed),
+            "n_drop_blobs": int(self.n_drop_blobs),
         }
 
 
