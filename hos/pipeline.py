@@ -924,7 +924,9 @@ class HosDetector:
         # 3e. where the light changes in this frame (a cloud's shade coming or going, beyond
         # the paper, departure 31), what eq. 8 cuts out is what the correction missed of it
         # (the second track tests them itself: a shade's edge is still there in the next frame)
-        drops = accepted.copy() if self.params.decision.transient_lit else accepted
+        drops = (
+            accepted.copy() if self._track is not None and p.decision.transient_lit else accepted
+        )
         if seg.shading is not None:
             lit = _in_cells(seg.shading, seg.shading_cell, mom.x0, mom.y0)
             lit[0] = False
