@@ -307,9 +307,8 @@ class DecisionParams:
     #: frame only). It has its own pool and Kalman filter, with ``transient_blobs`` as its
     #: ``measurement_blobs``; rain is said when either track says it (docs/method.md,
     #: departure 45). A rain test only: slow snow fails it, and stays with the first track.
-    #: 0 (the default): no second track; 0.5 is the value measured. An option, off: it sees
-    #: more rain, but said rain on a clear scene that no parameter was set on (departure 45).
-    transient_share: float = 0.0
+    #: 0: no second track.
+    transient_share: float = 0.5
     transient_blobs: float = 30.0
     #: ... and only blobs of at least this many pixels vote in it: a drop of sensor noise
     #: passes eq. 32 too, and a blob of 2 pixels has one of four orientations

@@ -270,12 +270,13 @@ def test_rain_behind_creeping_fragments_is_seen_once_they_are_left_out(
     creeping, radius: float
 ) -> None:
     """200 fragments creeping about a pixel a frame, 40 streaks a frame: Pi 0.65 with the rule,
-    0.24 without, under the threshold (the control)."""
+    0.24 without, under the threshold (the control). Pi is the first track's: the second
+    (departure 45) sees the streaks either way, the fragments failing eq. 32."""
     said, pi = _said(creeping, found_again_radius=radius)
     if radius > 0:
         assert said >= 0.95 and pi > 0.5
     else:
-        assert said <= 0.2 and pi < 0.35
+        assert pi < 0.35
 
 
 def test_creeping_fragments_alone_are_not_rain() -> None:

@@ -31,12 +31,18 @@ SETTLE = 90
 def _verdicts(*empty_ratios: float) -> dict[float, tuple[np.ndarray, np.ndarray]]:
     """For each ``empty_ratio``: rain verdicts and voting blobs a frame on the tuning split's
     scene 14 (drizzle, 320x240, camera in the wind, uncompressed), with the drizzle stopping at
-    STOP. The scene is rendered once; each frame goes to one detector a ratio."""
+    STOP. The scene is rendered once; each frame goes to one detector a ratio. With the rule
+    off (0) the second track is off too: it sees the drizzle's drops whatever the first
+    track's rules (departure 45), and the control is the first track's."""
     case = sample_case("tuning", 14, condition="drizzle", camera="wind", frames=FRAMES)
     schedule = [1.0] * STOP + [0.0] * (FRAMES - STOP)
     case = replace(case, params=replace(case.params, schedule=schedule))
     dets = [
-        HosDetector(DetectorParams.from_dict({"decision": {"empty_ratio": ratio}}))
+        HosDetector(
+            DetectorParams.from_dict(
+                {"decision": {"empty_ratio": ratio} | ({} if ratio else {"transient_share": 0.0})}
+            )
+        )
         for ratio in empty_ratios
     ]
     rain = [[] for _ in dets]
