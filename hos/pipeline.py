@@ -121,7 +121,8 @@ _REPEATS_HELD = 25
 class _Pending:
     """A frame's voting blobs, kept for the next frame's eq. 32 (departure 45): the frame's
     shape; their pixels' flat indices, blob (0..k-1) and grey level, and whether each was
-    ``photometric_c`` brighter than in the frame before; their votes (3, k: orientation,
+    ``photometric_c`` brighter than in the frame before (and at rest before it, with
+    ``decision.transient_rest``); their votes (3, k: orientation,
     uncertainty, weight), traffic-map cells and centroids."""
 
     shape: tuple[int, ...]
@@ -142,11 +143,7 @@ class _TransientTrack:
     def __init__(self, params: DecisionParams) -> None:
         # its frames come a frame late, so it ends a frame sooner: the verdict ends with the
         # first track's when both end with the rain
-        tp = dataclasses.replace(
-            params,
-            measurement_blobs=params.transient_blobs,
-            dwell_off_frames=max(params.dwell_off_frames - 1, 1),
-        )
+        tp = dataclasses.replace(params, dwell_off_frames=max(params.dwell_off_frames - 1, 1))
         self.smoother = ParameterSmoother(tp)
         self.pool: deque = deque(maxlen=params.pool_frames)
         self.last_fit: tuple[float, float, float] | None = None
@@ -954,19 +951,7 @@ class HosDetector:
         fitted, n_pooled, pooled, n_eff, places, votes = self._pooled_hos(
             hist, hold, blob_cells[idx], np.stack((theta, dtheta, mom.a[idx]))
         )
-        if idx.size:
-            mp = p.mixture
-            fit = (fit_mixture_jit if self.compiled else fit_mixture)(
-                fitted,
-                max_iter=mp.max_iter,
-                tol=mp.tol,
-                gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
-                sigma_min=mp.sigma_min,
-                start=self._last_fit,
-            )
-            self._last_fit = (fit.pi, fit.mu, fit.sigma) if fit.ok and fit.gof_ok else None
-        else:
-            fit = MixtureFit(ok=False, reason="no blobs")
+        fit, self._last_fit = self._fit(fitted, idx.size, n_eff, self._last_fit)
 
         # 6. decision
         plausible = self._plausible(
@@ -1413,19 +1398,7 @@ class HosDetector:
             hist, False, cells, votes, pool=track.pool
         )
         n = votes.shape[1]
-        if n:
-            mp = self.params.mixture
-            fit = (fit_mixture_jit if self.compiled else fit_mixture)(
-                fitted,
-                max_iter=mp.max_iter,
-                tol=mp.tol,
-                gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
-                sigma_min=mp.sigma_min,
-                start=track.last_fit,
-            )
-            track.last_fit = (fit.pi, fit.mu, fit.sigma) if fit.ok and fit.gof_ok else None
-        else:
-            fit = MixtureFit(ok=False, reason="no blobs")
+        fit, track.last_fit = self._fit(fitted, n, n_eff, track.last_fit)
         width = None
         if fit.ok and fit.gof_ok:
             own = (fit.sigma, self._streak_spread(fit, pooled_votes))
@@ -1522,6 +1495,29 @@ class HosDetector:
         )
         drop = share >= self.params.decision.transient_share
         return pending.votes[:, drop], pending.cells[drop], pending.x[drop], pending.y[drop]
+
+    def _fit(
+        self,
+        hist: np.ndarray,
+        n: int,
+        n_eff: float,
+        start: tuple[float, float, float] | None,
+    ) -> tuple[MixtureFit, tuple[float, float, float] | None]:
+        """The mixture of eqs. 23-25 fitted to ``hist`` (``n`` blobs voted this frame,
+        ``n_eff`` in the histogram fitted), started from ``start`` (the last good fit), and
+        the start for the next frame: this fit if it is good, else None."""
+        if not n:
+            return MixtureFit(ok=False, reason="no blobs"), None
+        mp = self.params.mixture
+        fit = (fit_mixture_jit if self.compiled else fit_mixture)(
+            hist,
+            max_iter=mp.max_iter,
+            tol=mp.tol,
+            gof_dc=max(mp.gof_dc, mp.gof_ks_c / math.sqrt(n_eff)),
+            sigma_min=mp.sigma_min,
+            start=start,
+        )
+        return fit, (fit.pi, fit.mu, fit.sigma) if fit.ok and fit.gof_ok else None
 
     def _plausible(
         self,
