@@ -562,6 +562,12 @@ class RobustnessParams:
     traffic_now: bool = True
     traffic_hits: float = 5.0
     traffic_below: int = 2
+    #: ... and no lane is learnt where a cloud's shade is being corrected (the cells eq. 8
+    #: re-levels, departure 32, ``shade_relevel``): a shade's edge, a band of foreground
+    #: sweeping the view, is no vehicle's lane, and the cells it crossed became lanes that
+    #: hid the rain from the HOS for minutes after (docs/method.md, departure 46). The
+    #: frame's own bodies there still count. False: every dense cell is learnt, as before.
+    traffic_shade: bool = True
     #: Beyond the paper: a streak-sized blob found again in the next judged frame, moved by
     #: more than nothing and less than ``found_again_radius`` pixels (at
     #: ``size_reference_height`` rows), is not a new drop (a drop falls at least its streak's

@@ -894,7 +894,11 @@ class HosDetector:
         blob_cells = self._traffic.cells(mom.x0, mom.y0)
         if rob.traffic:
             # beyond the paper: where vehicles, pedestrians and spray are or often pass
-            self._traffic.update(seg.foreground, learn=learn and state == State.OK)
+            # ... learning no lane under a shade being corrected (departure 46)
+            exclude = seg.relevel_mask if rob.traffic_shade else None
+            self._traffic.update(
+                seg.foreground, learn=learn and state == State.OK, exclude=exclude
+            )
             in_traffic = self._traffic.covers(blob_cells)
             in_traffic[0] = False
         else:

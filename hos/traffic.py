@@ -121,13 +121,26 @@ class TrafficMap:
         core = cv2.dilate(corner, _BLOCK, anchor=(1, 1), borderType=cv2.BORDER_CONSTANT)
         return self.grow(core).view(bool)
 
-    def update(self, foreground: np.ndarray, *, learn: bool) -> np.ndarray:
-        """Take one frame's foreground; ``learn``: also update the running rate. Returns the
-        (gh, gw) bool traffic mask of this frame."""
+    def update(
+        self, foreground: np.ndarray, *, learn: bool, exclude: np.ndarray | None = None
+    ) -> np.ndarray:
+        """Take one frame's foreground; ``learn``: also update the running rate. ``exclude``:
+        an image of any size, non-zero where the foreground is not bodies (a cloud's shade
+        being corrected): the cells it covers by half or more are not learnt as dense in
+        this frame (they still count for its own bodies). Returns the (gh, gw) bool traffic
+        mask of this frame."""
         dense = self.dense(foreground)
         if learn:
             self.learnt += 1
-            cv2.accumulateWeighted(self.grow(dense).astype(np.float32), self.rate, self.k)
+            bodies = dense
+            if exclude is not None:
+                gh, gw = self.grid
+                share = cv2.resize(
+                    exclude.astype(np.float32), (gw, gh), interpolation=cv2.INTER_AREA
+                )
+                bodies = dense.copy()
+                bodies[share >= 0.5] = 0
+            cv2.accumulateWeighted(self.grow(bodies).astype(np.float32), self.rate, self.k)
         mask = self.bodies(dense) if self.now else np.zeros(self.grid, dtype=bool)
         if self.threshold > 0 and self.learnt:
             # The running mean from zero, corrected for its start (the mean of the frames

@@ -277,12 +277,13 @@ def _sky_edge_fall_z(fall_light: bool, scene: int) -> float:
     return max(r.fall_z for r in judged)
 
 
-@pytest.mark.parametrize(("scene", "shown"), [(100, 4.5), (109, 3.0)])
+@pytest.mark.parametrize(("scene", "shown"), [(100, 4.5), (109, 2.0)])
 def test_a_shades_edge_over_the_sky_is_not_seen_falling(scene: int, shown: float) -> None:
     """``decision.fall_light``: the pieces the sweeping edge leaves lie where the frame's
     level is off the background's (departure 32's blocks) and do not start precipitation.
     Without the rule the edge reads as a fall (z 6.0 in scene 100, 3.7 in 109; at 1280x720
-    over 8, so that the camera said snow on a clear day); with it, 0 and 1.0. In scene 109
+    over 8, so that the camera said snow on a clear day); with it, 0 and 1.0. Since no lane
+    is learnt under a shade (departure 46), z 5.3 and 2.2 without the rule. In scene 109
     the edge crosses a sky whose cells are not re-levelled: read only in those cells, the
     rule left z at 4.2 (the type's meter still reads it so, docs/method.md, 37)."""
     without = _sky_edge_fall_z(False, scene)

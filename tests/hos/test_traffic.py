@@ -7,7 +7,7 @@ import cv2
 import numpy as np
 
 from drivers.simulator import Scene, SceneParams, StreakParams
-from hos import HosDetector
+from hos import DetectorParams, HosDetector
 from hos.result import BlobClass
 from hos.traffic import TrafficMap
 
@@ -130,3 +130,65 @@ def test_the_lights_mirrored_under_a_vehicle_are_traffic_with_the_downward_growt
     assert grown.lookup(*reflection)[0]
     # only downward: nothing above the roof is added
     assert grown.mask[:11].sum() == plain.mask[:11].sum()
+
+
+def test_a_shade_sweeping_the_view_leaves_no_lane_where_it_is_excluded() -> None:
+    """Departure 46: a cloud's shade edge is a band of foreground that sweeps the view; where
+    its correction is under way (``exclude``), the map learns no lane, while the frame's own
+    bodies there still count."""
+    shape = (240, 320)
+    learnt, control = _map(), _map()
+    empty = np.zeros(shape, np.uint8)
+    for i in range(200):
+        fg, band = empty.copy(), empty.copy()
+        x = 40 + 2 * i  # a band 30 px wide crossing the left half at 2 px a frame
+        if i < 60:
+            fg[:, x : x + 30] = 255
+            band[:, max(x - 8, 0) : x + 38] = 1  # the re-levelled cells and their neighbours
+        mask = learnt.update(fg, learn=True, exclude=band)
+        control.update(fg, learn=True)
+        if i == 59:  # the frame's body still counts where it is excluded ...
+            assert mask[:, (x + 8) // 8 : (x + 22) // 8].all()
+    # ... but the cells it crossed are no lane once it has gone, where the control's are
+    assert not learnt.update(empty, learn=False).any()
+    assert control.update(empty, learn=False)[:, 56 // 8 : 152 // 8].mean() > 0.9
+
+
+def test_drizzle_under_a_drifting_shade_is_not_hidden_by_lanes_the_shade_drew() -> None:
+    """Departure 46 on a scene: tuning-012's settings at 320x240 (faint short streaks, a
+    camera in the wind, a shade drifting at 36 px/s). Measured (seed 4, frames 100-299): the
+    traffic map covers 5 % of the view and rain is said on 52 % of the frames; with lanes
+    learnt under the shade (the control), 17 % and 27 %."""
+    rows = {}
+    for learn_under_shade in (False, True):
+        streaks = StreakParams(
+            mu_deg=80.0, sigma_deg=12.0, length_px=4.0, count=100, brightness=14.0
+        )
+        params = SceneParams(
+            fps=15.0,
+            cars=1,
+            foliage_sway_px=1.86,
+            sensor_noise=0.14,
+            shake_px=0.15,
+            darkness=0.4,
+            shade=0.3,
+            shade_speed_px_s=36.0,
+            shade_cover=0.56,
+            shade_edge=0.43,
+            wet_road=0.87,
+            lens_blur_px=0.41,
+            rain=streaks,
+        )
+        scene = Scene(320, 240, seed=4, params=params)
+        p = DetectorParams.from_dict({"robustness": {"traffic_shade": not learn_under_shade}})
+        det = HosDetector(p)
+        said, cells = [], []
+        for i in range(300):
+            r = det.process(scene.frame(i)[0], i / 15.0)
+            if i >= 100:
+                said.append(r.rain)
+                cells.append(det._traffic.mask.mean())
+        rows[learn_under_shade] = (float(np.mean(cells)), float(np.mean(said)))
+    (cells, said), (cells0, said0) = rows[False], rows[True]
+    assert cells < 0.08 and cells0 > 0.12, rows
+    assert said > 0.4 and said0 < 0.35, rows

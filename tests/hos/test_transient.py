@@ -184,10 +184,12 @@ def test_drops_where_the_light_changed_are_tested_not_left_out() -> None:
     """``decision.transient_lit``: where a cloud's shade moves, the first track leaves every
     blob out (departure 31: what eq. 8 cuts out there is what the correction missed of the
     light). A shade's edge is still there in the next frame and fails eq. 32, a drop passes:
-    so the second track tests those blobs itself. Measured: said on 65 and 18 of 100 frames
-    (seeds 3, 4) with them, 10 and 0 without (the control); clear, nothing."""
-    assert _drizzle_under_a_shade(True, rain=True, seed=3)[0] >= 0.5
-    assert _drizzle_under_a_shade(False, rain=True, seed=3)[0] <= 0.25
+    so the second track tests those blobs itself. Measured: said on 41 and 48 of 100 frames
+    (seeds 3, 4) with them, 25 and 0 without (the control); clear, nothing. (Before lanes
+    were no longer learnt under a shade, departure 46: 65 and 18, against 10 and 0.)"""
+    lit = [_drizzle_under_a_shade(True, rain=True, seed=seed)[0] for seed in (3, 4)]
+    unlit = [_drizzle_under_a_shade(False, rain=True, seed=seed)[0] for seed in (3, 4)]
+    assert np.mean(lit) >= 0.4 and np.mean(unlit) <= 0.2, (lit, unlit)
     said, pi = _drizzle_under_a_shade(True, rain=False, seed=3)
     assert said == 0.0 and pi < 0.1, pi
 
