@@ -896,9 +896,7 @@ class HosDetector:
             # beyond the paper: where vehicles, pedestrians and spray are or often pass
             # ... learning no lane under a shade being corrected (departure 46)
             exclude = seg.relevel_mask if rob.traffic_shade else None
-            self._traffic.update(
-                seg.foreground, learn=learn and state == State.OK, exclude=exclude
-            )
+            self._traffic.update(seg.foreground, learn=learn and state == State.OK, exclude=exclude)
             in_traffic = self._traffic.covers(blob_cells)
             in_traffic[0] = False
         else:
