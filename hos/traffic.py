@@ -136,7 +136,7 @@ class TrafficMap:
             if exclude is not None:
                 gh, gw = self.grid
                 share = cv2.resize(
-                    exclude.astype(np.float32), (gw, gh), interpolation=cv2.INTER_AREA
+                    np.asarray(exclude, dtype=np.float32), (gw, gh), interpolation=cv2.INTER_AREA
                 )
                 bodies = dense.copy()
                 bodies[share >= 0.5] = 0

@@ -10,6 +10,7 @@ from drivers.simulator import Scene, SceneParams, StreakParams
 from hos import DetectorParams, HosDetector
 from hos.result import BlobClass
 from hos.traffic import TrafficMap
+from tests.hos.test_transient import drizzle_under_a_shade_scene
 
 
 def _map(shape=(240, 320), **kw) -> TrafficMap:
@@ -161,25 +162,7 @@ def test_drizzle_under_a_drifting_shade_is_not_hidden_by_lanes_the_shade_drew() 
     learnt under the shade (the control), 17 % and 27 %."""
     rows = {}
     for learn_under_shade in (False, True):
-        streaks = StreakParams(
-            mu_deg=80.0, sigma_deg=12.0, length_px=4.0, count=100, brightness=14.0
-        )
-        params = SceneParams(
-            fps=15.0,
-            cars=1,
-            foliage_sway_px=1.86,
-            sensor_noise=0.14,
-            shake_px=0.15,
-            darkness=0.4,
-            shade=0.3,
-            shade_speed_px_s=36.0,
-            shade_cover=0.56,
-            shade_edge=0.43,
-            wet_road=0.87,
-            lens_blur_px=0.41,
-            rain=streaks,
-        )
-        scene = Scene(320, 240, seed=4, params=params)
+        scene = drizzle_under_a_shade_scene(seed=4)
         p = DetectorParams.from_dict({"robustness": {"traffic_shade": not learn_under_shade}})
         det = HosDetector(p)
         said, cells = [], []

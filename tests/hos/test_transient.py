@@ -145,11 +145,11 @@ def test_one_narrow_fit_of_few_drops_is_not_rain() -> None:
     assert _gathered(1) > 0.02
 
 
-def _drizzle_under_a_shade(lit: bool, *, rain: bool, seed: int) -> tuple[float, float]:
+def drizzle_under_a_shade_scene(seed: int, *, rain: bool = True):
     """Faint short streaks (14 grey levels, 4 px, 100 a frame) at 320x240, 15 fps, in a dim
     view (darkness 0.4) under a cloud's shade drifting at 36 px/s, a camera in the wind and
-    a soft lens: tuning-012's settings at a quarter of its pixels. Over frames 100-199 (or
-    90-299 clear): the share said rain, and the second track's highest smoothed Pi."""
+    a soft lens: tuning-012's settings at a quarter of its pixels (also drawn by
+    ``tests/hos/test_traffic.py``)."""
     from drivers.simulator import Scene, SceneParams, StreakParams
 
     streaks = StreakParams(mu_deg=80.0, sigma_deg=12.0, length_px=4.0, count=100, brightness=14.0)
@@ -168,7 +168,13 @@ def _drizzle_under_a_shade(lit: bool, *, rain: bool, seed: int) -> tuple[float, 
         lens_blur_px=0.41,
         rain=streaks if rain else None,
     )
-    scene = Scene(W, H, seed=seed, params=params)
+    return Scene(W, H, seed=seed, params=params)
+
+
+def _drizzle_under_a_shade(lit: bool, *, rain: bool, seed: int) -> tuple[float, float]:
+    """:func:`drizzle_under_a_shade_scene` over frames 100-199 (or 90-299 clear): the share
+    said rain, and the second track's highest smoothed Pi."""
+    scene = drizzle_under_a_shade_scene(seed, rain=rain)
     det = HosDetector(DetectorParams.from_dict({"decision": ON | {"transient_lit": lit}}))
     first, frames = (100, 200) if rain else (90, 300)
     said, pi = [], []
