@@ -74,9 +74,34 @@ def test_a_soft_camera_is_the_windy_tuning_scene_large_through_a_soft_lens(name:
         assert case.params.snow.mu_deg == base.params.snow.mu_deg
 
 
+@pytest.mark.parametrize("name", ["wind-1080", "drizzle-wind-720"])
+def test_a_large_set_is_the_windy_tuning_scene_at_that_size_with_its_own_lens(name: str) -> None:
+    condition, width, height = st.LARGE[name]
+    case = st.stress_case(name, 105)
+    base = sample_case("tuning", 105, condition=condition, camera="wind", frames=st.FRAMES)
+    assert case.name == f"{base.name}-{name}"
+    assert (case.width, case.height) == (width, height)
+    # its own lens, frame rate, codec, shake and shade (the drift scaled with the width)
+    assert case.params.lens_blur_px == base.params.lens_blur_px
+    assert (case.fps, case.h264_crf, case.params.jpeg_quality) == (
+        base.fps,
+        base.h264_crf,
+        base.params.jpeg_quality,
+    )
+    assert case.params.shake_px == base.params.shake_px > 0
+    assert case.params.shade == base.params.shade
+    assert case.params.shade_speed_px_s == pytest.approx(
+        base.params.shade_speed_px_s * width / base.width
+    )
+    if base.params.rain is not None:  # as many streaks a pixel, as long as the generator's
+        area = width * height / (base.width * base.height)
+        assert case.params.rain.count == pytest.approx(base.params.rain.count * area, rel=0.01)
+        assert case.params.rain.length_px == base.params.rain.length_px
+
+
 def test_every_set_draws_its_scenes_whatever_view_they_had() -> None:
     # a scene's view is drawn for its own frame size; a set draws it at another
-    for name in [*st.SETS, *st.SOFT]:
+    for name in [*st.SETS, *st.SOFT, *st.LARGE]:
         for index in range(100, 112):
             case = st.stress_case(name, index, frames=2)
             Scene(case.width, case.height, seed=case.seed, params=case.params)
