@@ -67,8 +67,10 @@ class SegmentationParams:
     #: "area"), 6 at 720 (9) and 9 at 1080 (21). ``"still"`` (the default): the lower of the
     #: two while the camera stands still, the area law while it is shaken (an offset of
     #: ``robustness.shaken_px`` or more within ``motion_window_frames``) (docs/method.md,
-    #: departure 15).
-    min_area_scaling: Literal["length", "area", "still"] = "still"
+    #: departure 15). ``"lower"`` (an option, departure 47): the lower of the two whether the
+    #: camera is shaken or not; it sees drizzle under a camera in the wind at 720 and 1080
+    #: rows, and said clear weather under a cloud's shade through a soft lens was rain.
+    min_area_scaling: Literal["length", "area", "still", "lower"] = "still"
     #: How ``max_area`` scales with the frame: "streak" (default), the larger of the area law
     #: and the length law, or "area", the paper's bound scaled with the frame's area. A
     #: streak is about a pixel wide at any resolution, so its area grows with the height
@@ -133,9 +135,9 @@ class SegmentationParams:
         _check(1 <= self.min_area <= self.max_area, "min_area", "must be >= 1 and <= max_area")
         _check(self.size_reference_height >= 1, "size_reference_height", "must be >= 1")
         _check(
-            self.min_area_scaling in ("length", "area", "still"),
+            self.min_area_scaling in ("length", "area", "still", "lower"),
             "min_area_scaling",
-            'must be "length", "area" or "still"',
+            'must be "length", "area", "still" or "lower"',
         )
         _check(
             self.max_area_scaling in ("streak", "area"),

@@ -815,10 +815,12 @@ class HosDetector:
         sp = p.segmentation
         at = h / sp.size_reference_height
         # the bounds scale with the area, or the lower one with the height only
-        # (SegmentationParams.min_area_scaling; docs/method.md, departure 15).
+        # (SegmentationParams.min_area_scaling; docs/method.md, departures 15 and 47).
         if sp.min_area_scaling == "length":
             min_scale = at
-        elif sp.min_area_scaling == "still" and self._shaken == 0:
+        elif sp.min_area_scaling == "lower" or (
+            sp.min_area_scaling == "still" and self._shaken == 0
+        ):
             min_scale = min(at, at * at)  # the lower of the two laws
         else:
             min_scale = at * at

@@ -552,9 +552,27 @@ def test_a_shaken_camera_at_720_rows_keeps_the_area_law():
     fragments grow with the frame's area, as swaying foliage did at 1080 rows): the same
     drizzle under a camera shaken by 0.4 px is judged as with the area law (not seen), where
     the length law sees it."""
-    said = _said_at_720_rows(("area", "still", "length"), shake_px=0.4)
+    said = _said_at_720_rows(("area", "still", "length", "lower"), shake_px=0.4)
     assert said["still"] == pytest.approx(said["area"], abs=0.05), said
     assert said["length"] > 0.9, said  # so the law, not the shake, decides
+    # ``"lower"`` (an option, departure 47) keeps the length law under the shaken camera
+    assert said["lower"] > 0.9, said
+
+
+def test_below_480_rows_the_lower_law_is_the_area_law_shaken_or_not():
+    """``"lower"`` (an option, departure 47) and ``"still"`` (the default) differ only above
+    480 rows, where the length law is the lower: at 480x270 under a shaken camera in faint
+    rain they give the same frames."""
+    rain = StreakParams(count=120, length_px=5.0, brightness=12.0, sigma_deg=12.0, mu_deg=95)
+    params = SceneParams(cars=2, rain=rain, sensor_noise=1.5, shake_px=0.5)
+    frames = [Scene(480, 270, seed=2, params=params).frame(i)[0] for i in range(110)]
+    runs = {}
+    for law in ("still", "lower"):
+        det = HosDetector(DetectorParams.from_dict({"segmentation": {"min_area_scaling": law}}))
+        runs[law] = [det.process(f, i / 25) for i, f in enumerate(frames)]
+        assert det._shaken > 0
+    for a, b in zip(runs["still"], runs["lower"], strict=True):
+        assert (a.rain, a.n_blobs, a.pi_smoothed) == (b.rain, b.n_blobs, b.pi_smoothed)
 
 
 def test_long_streaks_at_240_rows_pass_the_size_rule_that_scales_like_a_streak():
